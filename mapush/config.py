@@ -1,0 +1,125 @@
+"""Composing Hydra configs from the CLI and tests, validating them, and laying out run dirs."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import subprocess
+from pathlib import Path
+
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+import yaml
+from omegaconf import DictConfig, OmegaConf
+
+from mapush.errors import BadInput
+
+CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parents[1] / "conf"))
+"""The `conf/` tree. The package is installed in editable mode, so it sits beside `mapush/`."""
+
+GROUPS = ("task", "level", "lowlevel", "reward", "algo", "critic", "debug")
+
+
+def group_options(group: str) -> list[str]:
+    """The config files of a group, by name (e.g. task -> cuboid, cylinder, ocb_cuboid, tblock)."""
+    return sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
+
+
+def _check_groups(overrides: list[str]) -> None:
+    for override in overrides:
+        key, sep, value = override.lstrip("+~").partition("=")
+        if sep and key in GROUPS and value not in group_options(key) and not (key == "debug" and value == "null"):
+            raise BadInput(f"unknown {key} {value!r}; valid: {', '.join(group_options(key))}")
+
+
+def _unknown_key_message(base: DictConfig, full_key: str) -> str:
+    parent, _, leaf = full_key.rpartition(".")
+    node = OmegaConf.select(base, parent) if parent else base
+    valid = ", ".join(str(k) for k in node.keys()) if isinstance(node, DictConfig) else "(none)"
+    where = f" under '{parent}'" if parent else ""
+    return f"unknown config key {full_key!r}; valid keys{where}: {valid}"
+
+
+def compose_config(overrides: list[str] | tuple[str, ...] = ()) -> DictConfig:
+    """Compose `conf/config.yaml` with Hydra overrides. Every mistake is a BadInput naming the valid choices."""
+    overrides = list(overrides)
+    _check_groups(overrides)
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        try:
+            return compose(config_name="config", overrides=overrides)
+        except Exception as err:  # Hydra raises several types; all are the user's override mistakes
+            message = str(err).strip()
+            for override in overrides:
+                key = override.lstrip("+~").partition("=")[0]
+                if f"Key '{key.rpartition('.')[2]}' is not in struct" in message:
+                    base = compose(config_name="config", overrides=[o for o in overrides if o != override])
+                    raise BadInput(_unknown_key_message(base, key)) from None
+            raise BadInput(f"bad override: {message.splitlines()[0]}") from None
+
+
+def to_plain(cfg: DictConfig) -> dict:
+    """The config as plain, resolved Python containers (what rsl-rl and the env receive)."""
+    return OmegaConf.to_container(cfg, resolve=True)
+
+
+def git_state() -> dict:
+    """The commit of the mapush checkout and whether it has uncommitted changes (None outside git)."""
+    root = CONF_DIR.parent
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=True)
+        status = subprocess.run(["git", "status", "--porcelain"], cwd=root, capture_output=True, text=True)
+        return {"commit": commit.stdout.strip(), "dirty": bool(status.stdout.strip())}
+    except (OSError, subprocess.CalledProcessError):
+        return {"commit": None, "dirty": None}
+
+
+def new_run_dir(cfg: DictConfig) -> Path:
+    """A fresh `runs/<level>/<task>/<time>__seed<seed>` dir (suffixed if that name is taken)."""
+    stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    base = Path(cfg.train.run_root) / cfg.level.name / cfg.task.name / f"{stamp}__seed{cfg.seed}"
+    run_dir, k = base, 1
+    while run_dir.exists():
+        run_dir, k = base.with_name(f"{base.name}_{k}"), k + 1
+    run_dir.mkdir(parents=True)
+    return run_dir
+
+
+def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], command: str) -> None:
+    """Write what made the run: `config.yaml` (composed), `overrides.yaml`, `meta.json` (git, seed, command)."""
+    OmegaConf.save(cfg, run_dir / "config.yaml", resolve=True)
+    OmegaConf.save(OmegaConf.create(list(overrides)), run_dir / "overrides.yaml")
+    meta = {"command": command, "seed": int(cfg.seed), **git_state(), "created": datetime.datetime.now().isoformat()}
+    (run_dir / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+
+
+def load_run_config(run_dir: Path) -> DictConfig:
+    """The composed config a run was made with; BadInput if `run_dir` is not a run."""
+    path = Path(run_dir) / "config.yaml"
+    if not Path(run_dir).is_dir() or not path.is_file():
+        raise BadInput(f"{str(run_dir)!r} is not a run dir (no config.yaml); valid: a dir that `mapush train` made")
+    return OmegaConf.load(path)
+
+
+SWAPPABLE_GROUPS = ("task", "level", "lowlevel", "reward")
+"""Groups whose file can replace a saved run's node in `apply_overrides`."""
+
+
+def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
+    """Apply `key=value` and `group=name` overrides to a saved run config (for eval of an existing run)."""
+    cfg = cfg.copy()
+    for override in overrides:
+        key, sep, value = override.partition("=")
+        if not sep:
+            raise BadInput(f"bad override {override!r}; valid: key=value")
+        if key in GROUPS:
+            if key not in SWAPPABLE_GROUPS:
+                raise BadInput(f"group {key!r} cannot change for an existing run; valid: {', '.join(SWAPPABLE_GROUPS)}")
+            _check_groups([override])
+            cfg[key] = OmegaConf.load(CONF_DIR / key / f"{value}.yaml")
+        elif OmegaConf.select(cfg, key, default="<missing>") == "<missing>":
+            raise BadInput(_unknown_key_message(cfg, key))
+        else:
+            OmegaConf.update(cfg, key, yaml.safe_load(value), merge=False)
+    return cfg

@@ -1,0 +1,1 @@
+"""Pushing environments: the mid-level env and its resets, observations and terminations."""

@@ -1,0 +1,75 @@
+"""Mid-level observations: each robot's local view (actor) and the global state (critic).
+
+Angles are encoded as (cos, sin) pairs, so the policy never sees the 2 pi jump of a wrapped angle.
+"""
+
+from __future__ import annotations
+
+import torch
+
+
+def to_agent_frame(points: torch.Tensor, robot_xy: torch.Tensor, robot_yaw: torch.Tensor) -> torch.Tensor:
+    """x^i = R(-yaw_i) (x - p_i) for points (E, A, ..., 2) seen by robot i at robot_xy (E, A, 2), yaw (E, A)."""
+    extra = points.dim() - 3
+    shape = robot_yaw.shape + (1,) * extra
+    c, s = torch.cos(robot_yaw).view(shape), torch.sin(robot_yaw).view(shape)
+    rel = points - robot_xy.view(*robot_xy.shape[:2], *(1,) * extra, 2)
+    return torch.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], -1)
+
+
+def angle_features(angle: torch.Tensor) -> torch.Tensor:
+    """(cos, sin) of an angle: shape (...) -> (..., 2)."""
+    return torch.stack([torch.cos(angle), torch.sin(angle)], -1)
+
+
+def local_dim(num_agents: int) -> int:
+    """Width of the local observation: 6 + 4 (A - 1)."""
+    return 6 + 4 * (num_agents - 1)
+
+
+def local_observation(env) -> torch.Tensor:
+    """Each robot's view in its own frame (paper III-C; original layout, angles as cos/sin).
+
+    Layout (width 6 + 4 (A - 1)):
+        subgoal xy (2) | object xy (2) | object yaw - own yaw (cos, sin) (2) |
+        for k = 1..A-1, robot j = (i + k) mod A: its xy (2) and yaw - own yaw (cos, sin) (2)
+
+    Returns:
+        Shape: (E, A, 6 + 4 (A - 1)).
+    """
+    E, A = env.num_envs, env.num_agents
+    xy, yaw = env.robot_xy, env.robot_yaw
+    subgoal = to_agent_frame(env.subgoal_xy.unsqueeze(1).expand(E, A, 2), xy, yaw)
+    obj = to_agent_frame(env.object_xy.unsqueeze(1).expand(E, A, 2), xy, yaw)
+    parts = [subgoal, obj, angle_features(env.object_yaw.unsqueeze(1) - yaw)]
+    if A > 1:
+        others = env.other_agents                                                  # (A, A-1)
+        other_xy = to_agent_frame(xy[:, others], xy, yaw)                         # (E, A, A-1, 2)
+        other_yaw = angle_features(yaw[:, others] - yaw.unsqueeze(-1))           # (E, A, A-1, 2)
+        parts.append(torch.cat([other_xy, other_yaw], -1).flatten(2))
+    return torch.cat(parts, -1)
+
+
+def global_dim(num_agents: int) -> int:
+    """Width of the critic's global observation: 10 + 8 A."""
+    return 10 + 8 * num_agents
+
+
+def global_observation(env) -> torch.Tensor:
+    """The whole state in the world frame, the same for every robot but for its one-hot id (MAPPO critic).
+
+    Layout (width 10 + 8 A):
+        object xy (2) | object yaw (cos, sin) (2) | object velocity vx, vy, yaw rate (3) | subgoal xy (2) |
+        robots' xy (2 A) | robots' yaw (cos, sin) (2 A) | robots' velocity (3 A) | episode time fraction (1) |
+        agent one-hot (A)
+
+    Returns:
+        Shape: (E, A, 10 + 8 A).
+    """
+    E, A = env.num_envs, env.num_agents
+    state = torch.cat([
+        env.object_xy, angle_features(env.object_yaw), env.object_vel, env.subgoal_xy,
+        env.robot_xy.flatten(1), angle_features(env.robot_yaw).flatten(1), env.robot_vel.flatten(1),
+        (env.episode_step.float() / env.max_episode_length).unsqueeze(1),
+    ], -1)
+    return torch.cat([state.unsqueeze(1).expand(E, A, -1), env.agent_one_hot.expand(E, A, A)], -1)

@@ -1,0 +1,1 @@
+"""Deterministic evaluation of trained policies: success rate and completion time over seeds."""

@@ -1,0 +1,88 @@
+"""`mapush eval`: run deterministic episodes of a checkpoint and write `eval.json` (architecture section 6).
+
+Each seed runs `episodes` envs in parallel, one episode each (their first), as the original's "calculator" mode;
+S.R. is the fraction that succeed, C.T. the time to success with a failure counting as the timeout, normalized
+by the timeout (paper IV-B-1). Seeds give the mean +- std.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from mapush.config import apply_overrides, load_run_config, to_plain
+from mapush.envs.observations import local_dim
+from mapush.errors import BadInput
+from mapush.rl.runner import checkpoints, load_checkpoint
+
+
+def resolve_checkpoint(target: Path) -> tuple[Path, Path]:
+    """(run dir, checkpoint) from a run dir (its latest checkpoint) or a checkpoint file."""
+    target = Path(target)
+    if target.is_file():
+        return target.parent, target
+    if not target.exists():
+        raise BadInput(f"{str(target)!r} does not exist; valid: a run dir or a model_<iteration>.pt in one")
+    found = checkpoints(target)
+    load_run_config(target)
+    if not found:
+        raise BadInput(f"run dir {str(target)!r} has no checkpoint; valid: a run dir with model_*.pt")
+    return target, found[-1]
+
+
+def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int) -> dict:
+    """One episode in each of `episodes` envs with the deterministic policy; per-episode outcomes."""
+    from mapush.train import build  # late: train imports this module's neighbours
+
+    cfg = {**cfg, "seed": seed, "num_envs": episodes, "train": {**cfg["train"], "progress": False}}
+    env, runner = build(cfg, None, 0)
+    load_checkpoint(runner, checkpoint, local_dim(env.num_agents), f"task {cfg['task']['name']} with "
+                    f"{env.num_agents} agents")
+    policy = runner.get_inference_policy()
+    vec = runner.env
+    finished = torch.zeros(episodes, dtype=torch.bool)
+    success = torch.zeros(episodes, dtype=torch.bool)
+    exception = torch.zeros(episodes, dtype=torch.bool)
+    time_s = torch.zeros(episodes)
+    obs = vec.get_observations()
+    with torch.inference_mode():
+        while not finished.all():
+            obs, _, _, _ = vec.step(policy(obs))
+            end = vec.last_info["episode_end"]
+            first = end["done"] & ~finished
+            success |= end["success"] & first
+            exception |= end["exception"] & first
+            time_s[first] = end["time_s"][first]
+            finished |= end["done"]
+    timeout_s = env.max_episode_length * env.dt
+    completion_s = torch.where(success, time_s, torch.full_like(time_s, timeout_s))
+    return {"seed": seed, "episodes": episodes, "success_rate": success.float().mean().item(),
+            "exception_rate": exception.float().mean().item(), "completion_time_s": completion_s.mean().item(),
+            "completion_time": (completion_s / timeout_s).mean().item(), "timeout_s": timeout_s}
+
+
+def evaluate(target: Path, episodes: int | None, seeds: list[int] | None, overrides: list[str] = ()) -> Path:
+    """Evaluate a run dir or checkpoint over seeds; writes and returns `eval.json` in the run dir.
+
+    `overrides` (e.g. `task.num_agents=3`, `lowlevel=tracker`) change the run's config for this evaluation.
+    """
+    run_dir, checkpoint = resolve_checkpoint(target)
+    cfg = to_plain(apply_overrides(load_run_config(run_dir), overrides))
+    episodes = episodes or cfg["eval"]["episodes"]
+    seeds = seeds if seeds else list(cfg["eval"]["seeds"])
+    per_seed = [run_episodes(cfg, checkpoint, episodes, s) for s in seeds]
+    sr = np.array([r["success_rate"] for r in per_seed])
+    result = {
+        "checkpoint": str(checkpoint), "task": cfg["task"]["name"], "num_agents": cfg["task"]["num_agents"],
+        "success_rate": float(sr.mean()), "success_rate_std": float(sr.std()),
+        "completion_time": float(np.mean([r["completion_time"] for r in per_seed])),
+        "completion_time_std": float(np.std([r["completion_time"] for r in per_seed])),
+        "completion_time_s": float(np.mean([r["completion_time_s"] for r in per_seed])),
+        "timeout_s": per_seed[0]["timeout_s"], "episodes": episodes, "seeds": seeds, "per_seed": per_seed,
+    }
+    out = run_dir / "eval.json"
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    return out

@@ -1,0 +1,1 @@
+"""MCAP logs: training scalars through an rsl-rl LogWriter (the MCAP issue adds episode scenes and recovery)."""

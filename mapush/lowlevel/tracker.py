@@ -1,0 +1,82 @@
+"""The `tracker` low level: each robot is one rigid body moved in x, y and yaw by force-limited velocity actuators.
+
+It stands for "a locomotion controller that tracks velocity commands" (architecture section 2). Each actuator
+applies F = gain * (v_cmd - v), clamped to the force limit; with gain = mass / lag the velocity follows the command
+as a first-order lag. The slide joints move along the world axes, so body-frame commands are rotated into the world
+frame before they become actuator targets. The robot floats at a fixed height: it cannot tilt or fall.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+ROBOT_BODY = "base"
+JOINTS = ("x", "y", "yaw")
+"""Joint names inside one robot, in qpos order: world-x slide, world-y slide, yaw hinge."""
+
+
+class Tracker:
+    """Velocity-tracking rigid-body robots; see the module docstring."""
+
+    can_fall = False
+
+    def __init__(self, cfg: dict):
+        self.cfg = cfg
+        length, width, height = cfg["size"]
+        self.yaw_inertia = cfg["mass"] * (length**2 + width**2) / 12.0
+
+    def robot_spec(self, rgba: tuple[float, float, float, float] = (0.2, 0.4, 0.9, 1.0)) -> mujoco.MjSpec:
+        """One robot as a standalone spec, to be attached by prefix (`robot0/`, `robot1/`, ...)."""
+        length, width, height = self.cfg["size"]
+        spec = mujoco.MjSpec()
+        body = spec.worldbody.add_body(name=ROBOT_BODY, pos=[0.0, 0.0, height / 2])
+        for name, jtype, axis in (("x", "SLIDE", [1, 0, 0]), ("y", "SLIDE", [0, 1, 0]), ("yaw", "HINGE", [0, 0, 1])):
+            body.add_joint(name=name, type=getattr(mujoco.mjtJoint, f"mjJNT_{jtype}"), axis=axis)
+        # Robots touch the object, the walls and each other, never the floor (contype/conaffinity bit 2 only).
+        body.add_geom(
+            name="footprint", type=mujoco.mjtGeom.mjGEOM_BOX, size=[length / 2, width / 2, height / 2],
+            mass=self.cfg["mass"], rgba=list(rgba), contype=2, conaffinity=2,
+            friction=[self.cfg["friction"], 0.005, 0.0001],
+        )
+        # A nose marks the heading (visual only).
+        body.add_geom(
+            name="nose", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0], pos=[length / 2, 0, height / 2],
+            contype=0, conaffinity=0, mass=0.0, rgba=[1.0, 0.8, 0.1, 1.0],
+        )
+        for name, gain, limit in (
+            ("x", self.cfg["mass"] / self.cfg["lag"], self.cfg["max_force"]),
+            ("y", self.cfg["mass"] / self.cfg["lag"], self.cfg["max_force"]),
+            ("yaw", self.yaw_inertia / self.cfg["yaw_lag"], self.cfg["max_torque"]),
+        ):
+            act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            act.set_to_velocity(kv=gain)
+            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            act.forcerange = [-limit, limit]
+        return spec
+
+    def bind(self, model: mujoco.MjModel, prefixes: list[str]) -> None:
+        """Find the qpos, qvel and ctrl columns of every robot. Sets `qpos_idx`, `qvel_idx`, `ctrl_idx`: (A, 3)."""
+        joint_ids = np.array([[model.joint(p + j).id for j in JOINTS] for p in prefixes])
+        self.qpos_idx = model.jnt_qposadr[joint_ids]
+        self.qvel_idx = model.jnt_dofadr[joint_ids]
+        self.ctrl_idx = np.array([[model.actuator(p + j).id for j in JOINTS] for p in prefixes])
+
+    def read(self, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]:
+        """Robot states of all envs: `xy` (E, A, 2), `yaw` (E, A), `vel` (E, A, 3) world frame, `tilt` (E, A)."""
+        pose = qpos[:, self.qpos_idx]
+        return {"xy": pose[..., :2], "yaw": pose[..., 2], "vel": qvel[:, self.qvel_idx],
+                "tilt": np.zeros(pose.shape[:2])}
+
+    def command(self, ctrl: np.ndarray, yaw: np.ndarray, cmd: np.ndarray) -> None:
+        """Write body-frame commands (E, A, 3) = (vx, vy, yaw rate) as world-frame actuator targets into ctrl."""
+        c, s = np.cos(yaw), np.sin(yaw)
+        world = np.stack([c * cmd[..., 0] - s * cmd[..., 1], s * cmd[..., 0] + c * cmd[..., 1], cmd[..., 2]], -1)
+        ctrl[:, self.ctrl_idx] = world
+
+    def place(self, qpos: np.ndarray, qvel: np.ndarray, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
+        """Put the robots of envs `ids` at `xy` (n, A, 2) with headings `yaw` (n, A), at rest."""
+        qpos[np.ix_(ids, self.qpos_idx[:, 0])] = xy[..., 0]
+        qpos[np.ix_(ids, self.qpos_idx[:, 1])] = xy[..., 1]
+        qpos[np.ix_(ids, self.qpos_idx[:, 2])] = yaw
+        qvel[np.ix_(ids, self.qvel_idx.reshape(-1))] = 0.0

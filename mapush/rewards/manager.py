@@ -1,0 +1,52 @@
+"""The reward manager: (func, weight, params) terms from config, summed into one reward per agent."""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+
+import torch
+
+from mapush.errors import BadInput
+
+
+def resolve_term(path: str):
+    """Import `module:function`; a bad path is a BadInput naming the module's public functions."""
+    module_name, _, func_name = path.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise BadInput(f"reward function module {module_name!r} cannot be imported ({err})") from None
+    func = getattr(module, func_name, None)
+    if not callable(func):
+        valid = sorted(n for n, f in vars(module).items() if inspect.isfunction(f) and not n.startswith("_")
+                       and f.__module__ == module.__name__)
+        raise BadInput(f"unknown reward function {path!r}; valid in {module_name}: {', '.join(valid)}")
+    return func
+
+
+class RewardManager:
+    """Weighs and sums reward terms. Checks at construction that each term's params match its signature.
+
+    Args:
+        terms_cfg: {name: {func, weight, params}}; a null entry or weight 0 drops the term.
+    """
+
+    def __init__(self, terms_cfg: dict):
+        self.terms = {}
+        for name, term in terms_cfg.items():
+            if term is None or term.get("weight", 0.0) == 0.0:
+                continue
+            func = resolve_term(term["func"])
+            params = dict(term.get("params") or {})
+            wanted = [p for p in inspect.signature(func).parameters][1:]
+            if sorted(wanted) != sorted(params):
+                raise BadInput(f"reward term {name!r} ({term['func']}) takes params {wanted}, config gives "
+                               f"{sorted(params)}")
+            self.terms[name] = (func, float(term["weight"]), params)
+
+    def compute(self, env) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        """Total reward (E, A) and each weighted term (E, A), by name."""
+        parts = {name: weight * func(env, **params) for name, (func, weight, params) in self.terms.items()}
+        total = torch.stack(list(parts.values())).sum(0) if parts else torch.zeros(env.num_envs, env.num_agents)
+        return total, parts

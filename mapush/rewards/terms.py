@@ -1,0 +1,95 @@
+"""Mid-level reward terms (paper App. B). Each returns the unweighted term, Shape: (num_envs, num_agents).
+
+Terms read the env's current state (`env.object_xy`, `env.robot_xy`, ...) and flags (`env.success`,
+`env.exception`); they run after the physics step and before finished envs are reset.
+"""
+
+from __future__ import annotations
+
+import torch
+
+
+def _shared(env, value: torch.Tensor) -> torch.Tensor:
+    """Broadcast a per-env value (E,) to every agent: (E, A)."""
+    return value.float().unsqueeze(1).expand(-1, env.num_agents)
+
+
+def subgoal_reached(env) -> torch.Tensor:
+    """1 on the step the object centre comes within the success distance of the subgoal; shared."""
+    return _shared(env, env.success)
+
+
+def subgoal_progress(env, alpha: float) -> torch.Tensor:
+    """alpha * (d_{t-1} - d_t) - d_t, with d the object-subgoal distance in m; shared (paper: alpha = 200)."""
+    d = env.subgoal_distance
+    return _shared(env, alpha * (env.prev_subgoal_distance - d) - d)
+
+
+def exception(env) -> torch.Tensor:
+    """1 when the episode ends in an exception (fall, robot collision, object tilt, NaN); shared."""
+    return _shared(env, env.exception)
+
+
+def agent_proximity(env) -> torch.Tensor:
+    """sum over the other robots j of 1 / (0.02 + d_ij / 3), d_ij the distance between robot centres in m."""
+    d = torch.cdist(env.robot_xy, env.robot_xy)
+    near = 1.0 / (0.02 + d / 3.0)
+    return near.sum(-1) - 1.0 / 0.02  # drop j = i, where d_ii = 0
+
+
+def object_approach(env) -> torch.Tensor:
+    """-(d_i + 0.5)^2, d_i the distance from robot i to the object centre in m."""
+    d = torch.linalg.vector_norm(env.robot_xy - env.object_xy.unsqueeze(1), dim=-1)
+    return -((d + 0.5) ** 2)
+
+
+def object_moving(env, min_speed: float) -> torch.Tensor:
+    """1 while the object's planar speed exceeds `min_speed` m/s; shared."""
+    return _shared(env, torch.linalg.vector_norm(env.object_vel[:, :2], dim=-1) > min_speed)
+
+
+def occlusion_based(env) -> torch.Tensor:
+    """OCB (paper III-E-1): inward normal of the object's hull at the point closest to robot i, dotted with the
+    unit vector from the object to the subgoal. +1 behind the object (the pushing side), -1 in front of it."""
+    to_goal = env.subgoal_xy - env.object_xy
+    to_goal = to_goal / torch.linalg.vector_norm(to_goal, dim=-1, keepdim=True).clamp_min(1e-6)
+    normal = hull_inward_normal(env.hull, env.object_xy, env.object_yaw, env.robot_xy)
+    return (normal * to_goal.unsqueeze(1)).sum(-1)
+
+
+def hull_inward_normal(hull: torch.Tensor, object_xy: torch.Tensor, object_yaw: torch.Tensor,
+                       points: torch.Tensor) -> torch.Tensor:
+    """Inward unit normal of a convex polygon at the boundary point closest to each query point, in the world frame.
+
+    Outside the hull this is the unit vector from the point to its closest boundary point (at an edge it is the
+    edge's inward normal, at a vertex it turns continuously between the two edges' normals). Inside (possible
+    in the T-block's notches) it is the inward normal of the closest edge.
+
+    Args:
+        hull: CCW vertices in the object frame, (V, 2).
+        object_xy: (E, 2). object_yaw: (E,). points: (E, A, 2), world frame.
+
+    Returns:
+        Shape: (E, A, 2).
+    """
+    c, s = torch.cos(object_yaw)[:, None], torch.sin(object_yaw)[:, None]
+    rel = points - object_xy.unsqueeze(1)
+    # q = R(-yaw) (p - b): the points in the object frame
+    q = torch.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], -1)
+    start, edge = hull, torch.roll(hull, -1, 0) - hull                          # (V, 2)
+    t = (((q.unsqueeze(2) - start) * edge).sum(-1) / (edge * edge).sum(-1)).clamp(0.0, 1.0)  # (E, A, V)
+    closest = start + t.unsqueeze(-1) * edge                                    # (E, A, V, 2)
+    gap = closest - q.unsqueeze(2)
+    dist = torch.linalg.vector_norm(gap, dim=-1)
+    k = dist.argmin(-1, keepdim=True)                                           # nearest edge
+    gap_k = torch.gather(gap, 2, k.unsqueeze(-1).expand(*k.shape, 2)).squeeze(2)
+    dist_k = torch.gather(dist, 2, k).squeeze(2)
+    edge_k = edge[k.squeeze(-1)]
+    edge_normal = torch.stack([-edge_k[..., 1], edge_k[..., 0]], -1)           # left normal: inward for CCW
+    edge_normal = edge_normal / torch.linalg.vector_norm(edge_normal, dim=-1, keepdim=True)
+    inside = ((q.unsqueeze(2) - start)[..., 0] * edge[:, 1] - (q.unsqueeze(2) - start)[..., 1] * edge[:, 0]
+              <= 0).all(-1)                                                     # left of (or on) every edge
+    use_gap = (~inside) & (dist_k > 1e-6)
+    n = torch.where(use_gap.unsqueeze(-1), gap_k / dist_k.clamp_min(1e-6).unsqueeze(-1), edge_normal)
+    # back to the world frame: R(yaw) n
+    return torch.stack([c * n[..., 0] - s * n[..., 1], s * n[..., 0] + c * n[..., 1]], -1)

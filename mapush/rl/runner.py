@@ -1,0 +1,99 @@
+"""Building rsl-rl's OnPolicyRunner for a mapush config, with atomic checkpoints, resume and export."""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+import torch
+from rsl_rl.runners import OnPolicyRunner
+
+from mapush.errors import BadInput
+from mapush.logging.metrics import IterationLogger
+
+CHECKPOINT = re.compile(r"model_(\d+)\.pt$")
+POLICY_FILE = "policy.pt"
+"""The exported TorchScript policy: local observation (n, d) -> deterministic action (n, 3)."""
+
+
+class MapushRunner(OnPolicyRunner):
+    """OnPolicyRunner whose checkpoints are written atomically and whose logger flushes every iteration."""
+
+    def __init__(self, env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu"):
+        super().__init__(env, train_cfg, log_dir=log_dir, device=device)
+        self.logger.__class__ = IterationLogger  # same state, plus a per-iteration flush of the MCAP writer
+
+    def save(self, path: str, infos: dict | None = None) -> None:
+        """Write the checkpoint to a temp file, then rename it into place: a cut never leaves half a file."""
+        saved = self.alg.save()
+        saved["iter"] = self.current_learning_iteration
+        saved["infos"] = infos
+        tmp = f"{path}.tmp"
+        torch.save(saved, tmp)
+        os.replace(tmp, path)
+        self.logger.save_model(path, self.current_learning_iteration)
+
+
+def train_cfg_for(cfg: dict, num_agents: int, total_iterations: int) -> dict:
+    """The rsl-rl runner dict: `algo` as configured, plus mapush's MCAP log writer."""
+    train_cfg = copy.deepcopy(cfg["algo"])  # rsl-rl mutates what it is given
+    train_cfg["logger"] = {"class_name": "mapush.logging.metrics:McapLogWriter", "filename": "metrics.mcap",
+                           "total_iterations": total_iterations, "num_agents": num_agents,
+                           "progress": bool(cfg["train"]["progress"])}
+    return train_cfg
+
+
+def seed_everything(seed: int) -> None:
+    """Seed torch and numpy (the env has its own generator, seeded from the same value)."""
+    torch.manual_seed(seed)
+    np.random.seed(seed)
+
+
+def checkpoints(run_dir: Path) -> list[Path]:
+    """The run's checkpoints, oldest iteration first."""
+    found = [p for p in Path(run_dir).glob("model_*.pt") if CHECKPOINT.search(p.name)]
+    return sorted(found, key=lambda p: int(CHECKPOINT.search(p.name).group(1)))
+
+
+def actor_input_dim(checkpoint: dict) -> int:
+    """Width of the observation the checkpoint's actor was trained on."""
+    weights = [v for k, v in checkpoint["actor_state_dict"].items() if k.endswith("weight") and v.dim() == 2]
+    return int(weights[0].shape[1])
+
+
+def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str) -> int:
+    """Load `path` into `runner` after checking it fits; returns the checkpoint's iteration.
+
+    Raises BadInput for a missing file or a checkpoint made for another observation width (agent count).
+    """
+    if not Path(path).is_file():
+        raise BadInput(f"checkpoint {str(path)!r} does not exist; valid: a model_<iteration>.pt of a run dir")
+    try:
+        data = torch.load(path, weights_only=False, map_location="cpu")
+        trained_dim = actor_input_dim(data)
+    except Exception as err:  # a truncated or foreign file
+        raise BadInput(f"checkpoint {str(path)!r} is not an rsl-rl checkpoint ({type(err).__name__})") from None
+    if trained_dim != obs_dim:
+        raise BadInput(f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
+                       f"{obs_dim}-d; valid: the task and agent count it was trained with")
+    runner.load(str(path), map_location=runner.device)
+    return int(data["iter"])
+
+
+def learn(runner: MapushRunner, iterations: int, log_path: Path) -> None:
+    """Run `iterations` PPO iterations; rsl-rl's console report goes to `log_path`, the writer is always closed."""
+    try:
+        with open(log_path, "a") as log, contextlib.redirect_stdout(log):
+            runner.learn(num_learning_iterations=iterations)
+    finally:
+        runner.logger.stop_logging_writer()
+
+
+def export_policy(runner: OnPolicyRunner, run_dir: Path) -> Path:
+    """Export the deterministic actor (with its observation normalizer) to TorchScript."""
+    runner.export_policy_to_jit(str(run_dir), POLICY_FILE)
+    return Path(run_dir) / POLICY_FILE

@@ -1,0 +1,71 @@
+"""Presents E envs x A agents to rsl-rl as E*A rows (MAPPO with parameter sharing, libraries.md 1.3).
+
+Row r holds agent r % A of env r // A (row = env * A + agent). Every row of an env shares its done and time-out
+flags; each row gets its own agent's reward.
+"""
+
+from __future__ import annotations
+
+import torch
+from rsl_rl.env import VecEnv
+from tensordict import TensorDict
+
+
+def to_rows(x: torch.Tensor) -> torch.Tensor:
+    """(E, A, ...) -> (E*A, ...), row = env * A + agent."""
+    return x.reshape(x.shape[0] * x.shape[1], *x.shape[2:])
+
+
+def from_rows(x: torch.Tensor, num_agents: int) -> torch.Tensor:
+    """(E*A, ...) -> (E, A, ...); the inverse of `to_rows`."""
+    return x.reshape(x.shape[0] // num_agents, num_agents, *x.shape[1:])
+
+
+def env_flags_to_rows(flags: torch.Tensor, num_agents: int) -> torch.Tensor:
+    """A per-env flag (E,) repeated for each of its agents: (E*A,)."""
+    return flags.repeat_interleave(num_agents)
+
+
+class AgentRowsVecEnv(VecEnv):
+    """rsl-rl VecEnv over a multi-agent env whose tensors are (E, A, ...).
+
+    Attributes:
+        num_envs: rows, E * A. num_actions: per-agent action width.
+        last_info: the wrapped env's info of the latest step (episode outcomes for evaluation).
+    """
+
+    def __init__(self, env, device: str = "cpu"):
+        self.env = env
+        self.num_agents = env.num_agents
+        self.num_envs = env.num_envs * env.num_agents
+        self.num_actions = 3
+        self.max_episode_length = env.max_episode_length
+        self.device = device
+        self.cfg = env.cfg
+        self._obs = self._to_tensordict(env.observations())
+        self.last_info: dict = {}
+
+    @property
+    def episode_length_buf(self) -> torch.Tensor:
+        """Current episode step of every row. Shape: (E*A,)."""
+        return env_flags_to_rows(self.env.episode_step, self.num_agents)
+
+    @episode_length_buf.setter
+    def episode_length_buf(self, value: torch.Tensor) -> None:
+        self.env.episode_step[:] = from_rows(value.cpu(), self.num_agents)[:, 0]
+
+    def _to_tensordict(self, obs: dict[str, torch.Tensor]) -> TensorDict:
+        return TensorDict({k: to_rows(v).to(self.device) for k, v in obs.items()}, batch_size=[self.num_envs])
+
+    def get_observations(self) -> TensorDict:
+        """Current observations, without stepping or resetting."""
+        return self._obs
+
+    def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        """Step with actions (E*A, 3); returns obs, rewards (E*A,), dones (E*A,), extras (time_outs, log)."""
+        obs, reward, terminated, truncated, info = self.env.step(from_rows(actions.cpu(), self.num_agents))
+        self._obs = self._to_tensordict(obs)
+        self.last_info = info
+        dones = env_flags_to_rows(terminated | truncated, self.num_agents).to(self.device)
+        extras = {"time_outs": env_flags_to_rows(truncated, self.num_agents).to(self.device), "log": info["log"]}
+        return self._obs, to_rows(reward).to(self.device), dones, extras

@@ -1,0 +1,1 @@
+"""Scene building with MjSpec and the batched MuJoCo simulation core."""

@@ -1,0 +1,77 @@
+"""`mapush train`: compose, make (or reopen) a run dir, train with rsl-rl PPO, export the policy."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+from pathlib import Path
+
+from omegaconf import DictConfig
+
+import mapush
+from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
+from mapush.envs.mid import MidPushEnv
+from mapush.errors import BadInput
+from mapush.rl.runner import (MapushRunner, checkpoints, export_policy, learn, load_checkpoint, seed_everything,
+                              train_cfg_for)
+from mapush.rl.vecenv import AgentRowsVecEnv
+from mapush.envs.observations import local_dim
+
+
+def _exit_on_sigterm() -> None:
+    """Turn SIGTERM into SystemExit so that `finally` blocks close the MCAP file (libraries.md 3.5)."""
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+
+
+def build(cfg: dict, run_dir: Path | None, total_iterations: int) -> tuple[MidPushEnv, MapushRunner]:
+    """The env and the runner of a config; `run_dir=None` builds them without any logging (evaluation)."""
+    seed_everything(int(cfg["seed"]))
+    env = MidPushEnv(cfg)
+    vec_env = AgentRowsVecEnv(env, device=cfg["device"])
+    # rsl-rl prints the networks on construction: into train.log for a run, nowhere for an evaluation
+    sink = open(run_dir / "train.log", "a") if run_dir else open(os.devnull, "w")
+    with sink, contextlib.redirect_stdout(sink):
+        runner = MapushRunner(vec_env, train_cfg_for(cfg, env.num_agents, total_iterations),
+                              log_dir=str(run_dir) if run_dir else None, device=cfg["device"])
+    runner.add_git_repo_to_log(mapush.__file__)
+    return env, runner
+
+
+def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
+    """Train a fresh run; returns its run dir."""
+    if cfg.level.name != "mid":
+        raise BadInput(f"level {cfg.level.name!r} cannot be trained yet; valid: mid")
+    plain = to_plain(cfg)
+    MidPushEnv.validate(plain)
+    run_dir = new_run_dir(cfg)
+    save_run_config(run_dir, cfg, overrides, command)
+    print(run_dir, flush=True)
+    _run(plain, run_dir, start=0)
+    return run_dir
+
+
+def resume(run_dir: Path, iterations: int | None) -> Path:
+    """Continue a cut run from its latest checkpoint up to its configured (or the given) iteration count."""
+    cfg = load_run_config(run_dir)
+    if iterations is not None:
+        cfg.train.iterations = iterations
+    found = checkpoints(run_dir)
+    if not found:
+        raise BadInput(f"run dir {str(run_dir)!r} has no checkpoint to resume from; valid: a run with model_*.pt")
+    print(run_dir, flush=True)
+    _run(to_plain(cfg), Path(run_dir), start=None, checkpoint=found[-1])
+    return Path(run_dir)
+
+
+def _run(cfg: dict, run_dir: Path, start: int | None, checkpoint: Path | None = None) -> None:
+    _exit_on_sigterm()
+    total = int(cfg["train"]["iterations"])
+    env, runner = build(cfg, run_dir, total)
+    if checkpoint is not None:
+        done = load_checkpoint(runner, checkpoint, local_dim(env.num_agents), "the run's config") + 1
+        runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
+        start = done
+    learn(runner, max(total - start, 0), run_dir / "train.log")
+    export_policy(runner, run_dir)
