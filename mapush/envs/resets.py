@@ -47,7 +47,8 @@ def sample_ring(gen: torch.Generator, n: int, num_agents: int, radius: tuple[flo
         theta = uniform(gen, 0.0, 2 * math.pi, len(todo), num_agents)
         r = uniform(gen, radius[0], radius[1], len(todo), num_agents)
         offsets[todo] = torch.stack([r * torch.cos(theta), r * torch.sin(theta)], -1)
-        d = torch.cdist(offsets[todo], offsets[todo]) + torch.eye(num_agents) * 1e9
+        pts = offsets[todo]
+        d = torch.linalg.vector_norm(pts.unsqueeze(2) - pts.unsqueeze(1), dim=-1) + torch.eye(num_agents) * 1e9
         todo = todo[(d < min_distance).flatten(1).any(1)]
         if len(todo) == 0:
             return offsets

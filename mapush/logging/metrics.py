@@ -93,7 +93,7 @@ class McapLogWriter(LogWriter):
         steps = self._latest.get("Perf/total_fps", 0.0) / self.num_agents
         return (f"iter {it + 1}/{self.total_iterations} | {steps:,.0f} env-steps/s | "
                 f"reward {self._latest.get('Train/mean_reward', float('nan')):.3f} | "
-                f"success {100 * self._latest.get('Metrics/success_rate', float('nan')):.1f}% | "
+                f"success {100 * self._latest.get('Metrics/recent_success_rate', float('nan')):.1f}% | "
                 f"left {int(eta) // 60}m{int(eta) % 60:02d}s")
 
     def stop(self) -> None:

@@ -32,8 +32,7 @@ def exception(env) -> torch.Tensor:
 
 def agent_proximity(env) -> torch.Tensor:
     """sum over the other robots j of 1 / (0.02 + d_ij / 3), d_ij the distance between robot centres in m."""
-    d = torch.cdist(env.robot_xy, env.robot_xy)
-    near = 1.0 / (0.02 + d / 3.0)
+    near = 1.0 / (0.02 + env.robot_distance / 3.0)
     return near.sum(-1) - 1.0 / 0.02  # drop j = i, where d_ii = 0
 
 

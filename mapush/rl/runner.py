@@ -84,11 +84,15 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
     return int(data["iter"])
 
 
-def learn(runner: MapushRunner, iterations: int, log_path: Path) -> None:
-    """Run `iterations` PPO iterations; rsl-rl's console report goes to `log_path`, the writer is always closed."""
+def learn(runner: MapushRunner, iterations: int, log_path: Path, spread_episodes: bool = True) -> None:
+    """Run `iterations` PPO iterations; rsl-rl's console report goes to `log_path`, the writer is always closed.
+
+    `spread_episodes` starts the envs at random points of their first episode, so that episodes do not all time
+    out in the same iteration.
+    """
     try:
         with open(log_path, "a") as log, contextlib.redirect_stdout(log):
-            runner.learn(num_learning_iterations=iterations)
+            runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=spread_episodes)
     finally:
         runner.logger.stop_logging_writer()
 
