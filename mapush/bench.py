@@ -67,12 +67,17 @@ def run_bench(cfg: DictConfig) -> dict:
     train_rate = _time_training(plain, int(cfg.bench.train_iterations))
     env_best, raw_best = max(env_rates), max(raw_rates)
     return {
-        "task": cfg.task.name, "num_envs": plain["num_envs"], "num_agents": int(cfg.task.num_agents),
-        "lowlevel": cfg.lowlevel.name, "steps": steps,
-        "env_steps_per_s": round(env_best), "raw_sim_steps_per_s": round(raw_best),
+        "task": cfg.task.name,
+        "num_envs": plain["num_envs"],
+        "num_agents": int(cfg.task.num_agents),
+        "lowlevel": cfg.lowlevel.name,
+        "steps": steps,
+        "env_steps_per_s": round(env_best),
+        "raw_sim_steps_per_s": round(raw_best),
         "env_to_raw_ratio": round(env_best / raw_best, 3),
         "train_steps_per_s": round(train_rate),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
-        "cores": os.cpu_count(), "torch_threads": torch.get_num_threads(),
+        "cores": os.cpu_count(),
+        "torch_threads": torch.get_num_threads(),
         "machine": f"{platform.machine()} {platform.processor() or platform.system()}",
     }

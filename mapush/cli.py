@@ -5,27 +5,30 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
-from typing import Optional
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython; no git binary must not kill us
 
-import typer  # noqa: E402
+import typer
 
-from mapush.errors import BadInput  # noqa: E402
+from mapush.errors import BadInput
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl.",
+)
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
 
 @app.command(context_settings=PASS_THROUGH)
 def train(
     ctx: typer.Context,
-    resume: Optional[Path] = typer.Option(None, "--resume", help="Continue this cut run from its last checkpoint."),
+    resume: Path | None = typer.Option(None, "--resume", help="Continue this cut run from its last checkpoint."),
 ) -> None:
     """Train a policy (default: mid level, cuboid, 2 robots, tracker). Prints the run dir."""
-    from mapush.config import compose_config
     from mapush import train as training
+    from mapush.config import compose_config
 
     overrides = list(ctx.args)
     if resume is not None:
@@ -45,8 +48,8 @@ def train(
 def evaluate(
     ctx: typer.Context,
     target: Path = typer.Argument(..., help="A run dir (its latest checkpoint) or a model_<it>.pt file."),
-    episodes: Optional[int] = typer.Option(None, "--episodes", help="Trials per seed (default: eval.episodes)."),
-    seeds: Optional[str] = typer.Option(None, "--seeds", help="Comma-separated seeds (default: eval.seeds)."),
+    episodes: int | None = typer.Option(None, "--episodes", help="Trials per seed (default: eval.episodes)."),
+    seeds: str | None = typer.Option(None, "--seeds", help="Comma-separated seeds (default: eval.seeds)."),
 ) -> None:
     """Evaluate deterministically; writes eval.json (success rate, completion time) into the run dir."""
     import json
@@ -58,16 +61,18 @@ def evaluate(
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     out = run_eval(target, episodes, seed_list, list(ctx.args))
     result = json.loads(out.read_text())
-    print(f"success rate {100 * result['success_rate']:.1f} +- {100 * result['success_rate_std']:.1f} % | "
-          f"completion time {result['completion_time']:.3f} ({result['completion_time_s']:.2f} s) | "
-          f"{result['episodes']} episodes x seeds {result['seeds']}")
+    print(
+        f"success rate {100 * result['success_rate']:.1f} +- {100 * result['success_rate_std']:.1f} % | "
+        f"completion time {result['completion_time']:.3f} ({result['completion_time_s']:.2f} s) | "
+        f"{result['episodes']} episodes x seeds {result['seeds']}"
+    )
     print(out)
 
 
 @app.command(context_settings=PASS_THROUGH)
 def bench(
     ctx: typer.Context,
-    json_path: Optional[Path] = typer.Option(None, "--json", help="Also write the figures to this JSON file."),
+    json_path: Path | None = typer.Option(None, "--json", help="Also write the figures to this JSON file."),
 ) -> None:
     """Measure env, raw-physics and training throughput and peak memory (architecture section 7)."""
     import json

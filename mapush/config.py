@@ -8,9 +8,9 @@ import os
 import subprocess
 from pathlib import Path
 
+import yaml
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
-import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.errors import BadInput
@@ -34,9 +34,9 @@ def _check_groups(overrides: list[str]) -> None:
 
 
 def _unknown_key_message(base: DictConfig, full_key: str) -> str:
-    parent, _, leaf = full_key.rpartition(".")
+    parent, _, _leaf = full_key.rpartition(".")
     node = OmegaConf.select(base, parent) if parent else base
-    valid = ", ".join(str(k) for k in node.keys()) if isinstance(node, DictConfig) else "(none)"
+    valid = ", ".join(str(k) for k in node) if isinstance(node, DictConfig) else "(none)"
     where = f" under '{parent}'" if parent else ""
     return f"unknown config key {full_key!r}; valid keys{where}: {valid}"
 

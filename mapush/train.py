@@ -13,11 +13,18 @@ from omegaconf import DictConfig
 import mapush
 from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.envs.mid import MidPushEnv
-from mapush.errors import BadInput
-from mapush.rl.runner import (MapushRunner, checkpoints, export_policy, learn, load_checkpoint, seed_everything,
-                              train_cfg_for)
-from mapush.rl.vecenv import AgentRowsVecEnv
 from mapush.envs.observations import local_dim
+from mapush.errors import BadInput
+from mapush.rl.runner import (
+    MapushRunner,
+    checkpoints,
+    export_policy,
+    learn,
+    load_checkpoint,
+    seed_everything,
+    train_cfg_for,
+)
+from mapush.rl.vecenv import AgentRowsVecEnv
 
 
 def _exit_on_sigterm() -> None:
@@ -33,8 +40,12 @@ def build(cfg: dict, run_dir: Path | None, total_iterations: int) -> tuple[MidPu
     # rsl-rl prints the networks on construction: into train.log for a run, nowhere for an evaluation
     sink = open(run_dir / "train.log", "a") if run_dir else open(os.devnull, "w")
     with sink, contextlib.redirect_stdout(sink):
-        runner = MapushRunner(vec_env, train_cfg_for(cfg, env.num_agents, total_iterations),
-                              log_dir=str(run_dir) if run_dir else None, device=cfg["device"])
+        runner = MapushRunner(
+            vec_env,
+            train_cfg_for(cfg, env.num_agents, total_iterations),
+            log_dir=str(run_dir) if run_dir else None,
+            device=cfg["device"],
+        )
     runner.add_git_repo_to_log(mapush.__file__)
     return env, runner
 

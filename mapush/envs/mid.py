@@ -12,13 +12,12 @@ import numpy as np
 import torch
 
 from mapush.envs import observations as obs_terms
-from mapush.errors import BadInput
 from mapush.envs.resets import check_agent_count, sample_mid_layout
+from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS
 from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
 from mapush.sim.shapes import object_hull
-
 
 RECENT_EPISODES = 500
 """Episodes in the rolling success rate that is logged every step (`Metrics/recent_success_rate`)."""
@@ -42,12 +41,12 @@ class MidPushEnv:
         self.sim = BatchSim(cfg["sim"], task, self.lowlevel, self.num_envs)
         self.rewards = RewardManager(cfg["reward"]["terms"])
         self.dt = self.sim.dt
-        self.max_episode_length = int(math.ceil(level["episode_length_s"] / self.dt))
+        self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt)
         self.action_scale = torch.tensor(level["action_scale"], dtype=torch.float32)
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
         A = self.num_agents
-        self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A   # (A, A-1)
-        self.agent_one_hot = torch.eye(A).unsqueeze(0)                                                # (1, A, A)
+        self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A  # (A, A-1)
+        self.agent_one_hot = torch.eye(A).unsqueeze(0)  # (1, A, A)
         self.generator = torch.Generator().manual_seed(int(cfg["seed"]))
         E = self.num_envs
         self.episode_step = torch.zeros(E, dtype=torch.long)
@@ -95,8 +94,10 @@ class MidPushEnv:
     # ----------------------------------------------------------------------------------------------------------
     def observations(self) -> dict[str, torch.Tensor]:
         """`policy`: (E, A, local dim) and `critic`: (E, A, global dim), NaN-free."""
-        return {"policy": torch.nan_to_num(obs_terms.local_observation(self), 0.0, 0.0, 0.0),
-                "critic": torch.nan_to_num(obs_terms.global_observation(self), 0.0, 0.0, 0.0)}
+        return {
+            "policy": torch.nan_to_num(obs_terms.local_observation(self), 0.0, 0.0, 0.0),
+            "critic": torch.nan_to_num(obs_terms.global_observation(self), 0.0, 0.0, 0.0),
+        }
 
     def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
         """Advance every env by one policy step.
@@ -142,8 +143,13 @@ class MidPushEnv:
 
     def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
         """Outcomes of the episodes ending now: per-env `episode_end` and the `log` means rsl-rl records."""
-        end = {"done": done.clone(), "success": self.success & done, "exception": self.exception & done,
-               "diverged": diverged & done, "time_s": self.episode_step.float() * self.dt}
+        end = {
+            "done": done.clone(),
+            "success": self.success & done,
+            "exception": self.exception & done,
+            "diverged": diverged & done,
+            "time_s": self.episode_step.float() * self.dt,
+        }
         if not done.any():
             return {"episode_end": end, "log": {"Metrics/recent_success_rate": self.recent_success.nanmean()}}
         outcomes = self.success[done].float()[-RECENT_EPISODES:]

@@ -43,9 +43,9 @@ def local_observation(env) -> torch.Tensor:
     obj = to_agent_frame(env.object_xy.unsqueeze(1).expand(E, A, 2), xy, yaw)
     parts = [subgoal, obj, angle_features(env.object_yaw.unsqueeze(1) - yaw)]
     if A > 1:
-        others = env.other_agents                                                  # (A, A-1)
-        other_xy = to_agent_frame(xy[:, others], xy, yaw)                         # (E, A, A-1, 2)
-        other_yaw = angle_features(yaw[:, others] - yaw.unsqueeze(-1))           # (E, A, A-1, 2)
+        others = env.other_agents  # (A, A-1)
+        other_xy = to_agent_frame(xy[:, others], xy, yaw)  # (E, A, A-1, 2)
+        other_yaw = angle_features(yaw[:, others] - yaw.unsqueeze(-1))  # (E, A, A-1, 2)
         parts.append(torch.cat([other_xy, other_yaw], -1).flatten(2))
     return torch.cat(parts, -1)
 
@@ -67,9 +67,17 @@ def global_observation(env) -> torch.Tensor:
         Shape: (E, A, 10 + 8 A).
     """
     E, A = env.num_envs, env.num_agents
-    state = torch.cat([
-        env.object_xy, angle_features(env.object_yaw), env.object_vel, env.subgoal_xy,
-        env.robot_xy.flatten(1), angle_features(env.robot_yaw).flatten(1), env.robot_vel.flatten(1),
-        (env.episode_step.float() / env.max_episode_length).unsqueeze(1),
-    ], -1)
+    state = torch.cat(
+        [
+            env.object_xy,
+            angle_features(env.object_yaw),
+            env.object_vel,
+            env.subgoal_xy,
+            env.robot_xy.flatten(1),
+            angle_features(env.robot_yaw).flatten(1),
+            env.robot_vel.flatten(1),
+            (env.episode_step.float() / env.max_episode_length).unsqueeze(1),
+        ],
+        -1,
+    )
     return torch.cat([state.unsqueeze(1).expand(E, A, -1), env.agent_one_hot.expand(E, A, A)], -1)

@@ -16,7 +16,7 @@ def ring_capacity(radius: float, min_distance: float) -> int:
     """Most robots that fit on a ring of `radius` with centres at least `min_distance` apart."""
     if min_distance >= 2 * radius:
         return 1
-    return int(math.floor(math.pi / math.asin(min_distance / (2 * radius)) + 1e-9))
+    return math.floor(math.pi / math.asin(min_distance / (2 * radius)) + 1e-9)
 
 
 def check_agent_count(task_cfg: dict, min_distance: float) -> None:
@@ -31,8 +31,9 @@ def uniform(gen: torch.Generator, low: float, high: float, *shape: int) -> torch
     return low + (high - low) * torch.rand(*shape, generator=gen)
 
 
-def sample_ring(gen: torch.Generator, n: int, num_agents: int, radius: tuple[float, float],
-                min_distance: float) -> torch.Tensor:
+def sample_ring(
+    gen: torch.Generator, n: int, num_agents: int, radius: tuple[float, float], min_distance: float
+) -> torch.Tensor:
     """Robot offsets from the object centre on a ring, no two closer than `min_distance`.
 
     Angles are uniform and independent (as in the original); envs with a too-close pair are resampled, and the
@@ -56,8 +57,11 @@ def sample_ring(gen: torch.Generator, n: int, num_agents: int, radius: tuple[flo
     slack = 2 * math.pi / num_agents - 2 * math.asin(min(1.0, min_distance / (2 * radius[0])))
     base = uniform(gen, 0.0, 2 * math.pi, len(todo), 1) + torch.arange(num_agents) * 2 * math.pi / num_agents
     theta = base + uniform(gen, -0.5, 0.5, len(todo), num_agents) * max(slack, 0.0) * 0.5
-    r = uniform(gen, radius[0], radius[1], len(todo), num_agents) if slack > 0 else torch.full(
-        (len(todo), num_agents), radius[0])
+    r = (
+        uniform(gen, radius[0], radius[1], len(todo), num_agents)
+        if slack > 0
+        else torch.full((len(todo), num_agents), radius[0])
+    )
     offsets[todo] = torch.stack([r * torch.cos(theta), r * torch.sin(theta)], -1)
     return offsets
 

@@ -39,8 +39,9 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int) -> dict:
 
     cfg = {**cfg, "seed": seed, "num_envs": episodes, "train": {**cfg["train"], "progress": False}}
     env, runner = build(cfg, None, 0)
-    load_checkpoint(runner, checkpoint, local_dim(env.num_agents), f"task {cfg['task']['name']} with "
-                    f"{env.num_agents} agents")
+    load_checkpoint(
+        runner, checkpoint, local_dim(env.num_agents), f"task {cfg['task']['name']} with {env.num_agents} agents"
+    )
     policy = runner.get_inference_policy()
     vec = runner.env
     finished = torch.zeros(episodes, dtype=torch.bool)
@@ -59,9 +60,15 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int) -> dict:
             finished |= end["done"]
     timeout_s = env.max_episode_length * env.dt
     completion_s = torch.where(success, time_s, torch.full_like(time_s, timeout_s))
-    return {"seed": seed, "episodes": episodes, "success_rate": success.float().mean().item(),
-            "exception_rate": exception.float().mean().item(), "completion_time_s": completion_s.mean().item(),
-            "completion_time": (completion_s / timeout_s).mean().item(), "timeout_s": timeout_s}
+    return {
+        "seed": seed,
+        "episodes": episodes,
+        "success_rate": success.float().mean().item(),
+        "exception_rate": exception.float().mean().item(),
+        "completion_time_s": completion_s.mean().item(),
+        "completion_time": (completion_s / timeout_s).mean().item(),
+        "timeout_s": timeout_s,
+    }
 
 
 def evaluate(target: Path, episodes: int | None, seeds: list[int] | None, overrides: list[str] = ()) -> Path:
@@ -76,12 +83,18 @@ def evaluate(target: Path, episodes: int | None, seeds: list[int] | None, overri
     per_seed = [run_episodes(cfg, checkpoint, episodes, s) for s in seeds]
     sr = np.array([r["success_rate"] for r in per_seed])
     result = {
-        "checkpoint": str(checkpoint), "task": cfg["task"]["name"], "num_agents": cfg["task"]["num_agents"],
-        "success_rate": float(sr.mean()), "success_rate_std": float(sr.std()),
+        "checkpoint": str(checkpoint),
+        "task": cfg["task"]["name"],
+        "num_agents": cfg["task"]["num_agents"],
+        "success_rate": float(sr.mean()),
+        "success_rate_std": float(sr.std()),
         "completion_time": float(np.mean([r["completion_time"] for r in per_seed])),
         "completion_time_std": float(np.std([r["completion_time"] for r in per_seed])),
         "completion_time_s": float(np.mean([r["completion_time_s"] for r in per_seed])),
-        "timeout_s": per_seed[0]["timeout_s"], "episodes": episodes, "seeds": seeds, "per_seed": per_seed,
+        "timeout_s": per_seed[0]["timeout_s"],
+        "episodes": episodes,
+        "seeds": seeds,
+        "per_seed": per_seed,
     }
     out = run_dir / "eval.json"
     out.write_text(json.dumps(result, indent=2) + "\n")

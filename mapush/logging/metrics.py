@@ -44,8 +44,14 @@ class McapLogWriter(LogWriter):
         progress: print the progress line to stderr.
     """
 
-    def __init__(self, log_dir: str, filename: str = "metrics.mcap", total_iterations: int = 0, num_agents: int = 1,
-                 progress: bool = True):
+    def __init__(
+        self,
+        log_dir: str,
+        filename: str = "metrics.mcap",
+        total_iterations: int = 0,
+        num_agents: int = 1,
+        progress: bool = True,
+    ):
         self.path = next_free_path(os.path.join(log_dir, filename))
         self._file = open(self.path, "wb")
         self._writer = Writer(self._file, compression=CompressionType.ZSTD)
@@ -66,8 +72,9 @@ class McapLogWriter(LogWriter):
             channel = self._channels[tag] = self._writer.register_channel(f"/metrics/{tag}", "json", self._schema)
         now = time.time_ns()
         value = float(scalar_value)
-        self._writer.add_message(channel, now, json.dumps({"iteration": int(global_step), "value": value}).encode(),
-                                 now)
+        self._writer.add_message(
+            channel, now, json.dumps({"iteration": int(global_step), "value": value}).encode(), now
+        )
         self._latest[tag] = value
 
     def store_config(self, env_cfg: dict | object, train_cfg: dict) -> None:
@@ -91,10 +98,12 @@ class McapLogWriter(LogWriter):
         left = max(self.total_iterations - it - 1, 0)
         eta = (time.time() - self._started) / max(done, 1) * left
         steps = self._latest.get("Perf/total_fps", 0.0) / self.num_agents
-        return (f"iter {it + 1}/{self.total_iterations} | {steps:,.0f} env-steps/s | "
-                f"reward {self._latest.get('Train/mean_reward', float('nan')):.3f} | "
-                f"success {100 * self._latest.get('Metrics/recent_success_rate', float('nan')):.1f}% | "
-                f"left {int(eta) // 60}m{int(eta) % 60:02d}s")
+        return (
+            f"iter {it + 1}/{self.total_iterations} | {steps:,.0f} env-steps/s | "
+            f"reward {self._latest.get('Train/mean_reward', float('nan')):.3f} | "
+            f"success {100 * self._latest.get('Metrics/recent_success_rate', float('nan')):.1f}% | "
+            f"left {int(eta) // 60}m{int(eta) % 60:02d}s"
+        )
 
     def stop(self) -> None:
         """Finish the MCAP file (summary and index)."""
@@ -106,7 +115,7 @@ class McapLogWriter(LogWriter):
 class IterationLogger(Logger):
     """rsl-rl's Logger, plus an `end_iteration` call to the writer after each iteration's scalars are written."""
 
-    def log(self, it: int, *args, **kwargs) -> None:  # noqa: D102 - same contract as Logger.log
+    def log(self, it: int, *args, **kwargs) -> None:
         super().log(it, *args, **kwargs)
         if isinstance(self.writer, McapLogWriter):
             self.writer.end_iteration(it)

@@ -23,7 +23,7 @@ class Tracker:
 
     def __init__(self, cfg: dict):
         self.cfg = cfg
-        length, width, height = cfg["size"]
+        length, width, _height = cfg["size"]
         self.yaw_inertia = cfg["mass"] * (length**2 + width**2) / 12.0
 
     def robot_spec(self, rgba: tuple[float, float, float, float] = (0.2, 0.4, 0.9, 1.0)) -> mujoco.MjSpec:
@@ -35,14 +35,25 @@ class Tracker:
             body.add_joint(name=name, type=getattr(mujoco.mjtJoint, f"mjJNT_{jtype}"), axis=axis)
         # Robots touch the object, the walls and each other, never the floor (contype/conaffinity bit 2 only).
         body.add_geom(
-            name="footprint", type=mujoco.mjtGeom.mjGEOM_BOX, size=[length / 2, width / 2, height / 2],
-            mass=self.cfg["mass"], rgba=list(rgba), contype=2, conaffinity=2,
+            name="footprint",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[length / 2, width / 2, height / 2],
+            mass=self.cfg["mass"],
+            rgba=list(rgba),
+            contype=2,
+            conaffinity=2,
             friction=[self.cfg["friction"], 0.005, 0.0001],
         )
         # A nose marks the heading (visual only).
         body.add_geom(
-            name="nose", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0], pos=[length / 2, 0, height / 2],
-            contype=0, conaffinity=0, mass=0.0, rgba=[1.0, 0.8, 0.1, 1.0],
+            name="nose",
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            size=[0.05, 0, 0],
+            pos=[length / 2, 0, height / 2],
+            contype=0,
+            conaffinity=0,
+            mass=0.0,
+            rgba=[1.0, 0.8, 0.1, 1.0],
         )
         for name, gain, limit in (
             ("x", self.cfg["mass"] / self.cfg["lag"], self.cfg["max_force"]),
@@ -65,8 +76,12 @@ class Tracker:
     def read(self, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]:
         """Robot states of all envs: `xy` (E, A, 2), `yaw` (E, A), `vel` (E, A, 3) world frame, `tilt` (E, A)."""
         pose = qpos[:, self.qpos_idx]
-        return {"xy": pose[..., :2], "yaw": pose[..., 2], "vel": qvel[:, self.qvel_idx],
-                "tilt": np.zeros(pose.shape[:2])}
+        return {
+            "xy": pose[..., :2],
+            "yaw": pose[..., 2],
+            "vel": qvel[:, self.qvel_idx],
+            "tilt": np.zeros(pose.shape[:2]),
+        }
 
     def command(self, ctrl: np.ndarray, yaw: np.ndarray, cmd: np.ndarray) -> None:
         """Write body-frame commands (E, A, 3) = (vx, vy, yaw rate) as world-frame actuator targets into ctrl."""

@@ -19,8 +19,11 @@ def resolve_term(path: str):
         raise BadInput(f"reward function module {module_name!r} cannot be imported ({err})") from None
     func = getattr(module, func_name, None)
     if not callable(func):
-        valid = sorted(n for n, f in vars(module).items() if inspect.isfunction(f) and not n.startswith("_")
-                       and f.__module__ == module.__name__)
+        valid = sorted(
+            n
+            for n, f in vars(module).items()
+            if inspect.isfunction(f) and not n.startswith("_") and f.__module__ == module.__name__
+        )
         raise BadInput(f"unknown reward function {path!r}; valid in {module_name}: {', '.join(valid)}")
     return func
 
@@ -41,8 +44,9 @@ class RewardManager:
             params = dict(term.get("params") or {})
             wanted = [p for p in inspect.signature(func).parameters][1:]
             if sorted(wanted) != sorted(params):
-                raise BadInput(f"reward term {name!r} ({term['func']}) takes params {wanted}, config gives "
-                               f"{sorted(params)}")
+                raise BadInput(
+                    f"reward term {name!r} ({term['func']}) takes params {wanted}, config gives {sorted(params)}"
+                )
             self.terms[name] = (func, float(term["weight"]), params)
 
     def compute(self, env) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:

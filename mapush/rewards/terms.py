@@ -56,8 +56,9 @@ def occlusion_based(env) -> torch.Tensor:
     return (normal * to_goal.unsqueeze(1)).sum(-1)
 
 
-def hull_inward_normal(hull: torch.Tensor, object_xy: torch.Tensor, object_yaw: torch.Tensor,
-                       points: torch.Tensor) -> torch.Tensor:
+def hull_inward_normal(
+    hull: torch.Tensor, object_xy: torch.Tensor, object_yaw: torch.Tensor, points: torch.Tensor
+) -> torch.Tensor:
     """Inward unit normal of a convex polygon at the boundary point closest to each query point, in the world frame.
 
     Outside the hull this is the unit vector from the point to its closest boundary point (at an edge it is the
@@ -75,19 +76,20 @@ def hull_inward_normal(hull: torch.Tensor, object_xy: torch.Tensor, object_yaw: 
     rel = points - object_xy.unsqueeze(1)
     # q = R(-yaw) (p - b): the points in the object frame
     q = torch.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], -1)
-    start, edge = hull, torch.roll(hull, -1, 0) - hull                          # (V, 2)
+    start, edge = hull, torch.roll(hull, -1, 0) - hull  # (V, 2)
     t = (((q.unsqueeze(2) - start) * edge).sum(-1) / (edge * edge).sum(-1)).clamp(0.0, 1.0)  # (E, A, V)
-    closest = start + t.unsqueeze(-1) * edge                                    # (E, A, V, 2)
+    closest = start + t.unsqueeze(-1) * edge  # (E, A, V, 2)
     gap = closest - q.unsqueeze(2)
     dist = torch.linalg.vector_norm(gap, dim=-1)
-    k = dist.argmin(-1, keepdim=True)                                           # nearest edge
+    k = dist.argmin(-1, keepdim=True)  # nearest edge
     gap_k = torch.gather(gap, 2, k.unsqueeze(-1).expand(*k.shape, 2)).squeeze(2)
     dist_k = torch.gather(dist, 2, k).squeeze(2)
     edge_k = edge[k.squeeze(-1)]
-    edge_normal = torch.stack([-edge_k[..., 1], edge_k[..., 0]], -1)           # left normal: inward for CCW
+    edge_normal = torch.stack([-edge_k[..., 1], edge_k[..., 0]], -1)  # left normal: inward for CCW
     edge_normal = edge_normal / torch.linalg.vector_norm(edge_normal, dim=-1, keepdim=True)
-    inside = ((q.unsqueeze(2) - start)[..., 0] * edge[:, 1] - (q.unsqueeze(2) - start)[..., 1] * edge[:, 0]
-              <= 0).all(-1)                                                     # left of (or on) every edge
+    inside = ((q.unsqueeze(2) - start)[..., 0] * edge[:, 1] - (q.unsqueeze(2) - start)[..., 1] * edge[:, 0] <= 0).all(
+        -1
+    )  # left of (or on) every edge
     use_gap = (~inside) & (dist_k > 1e-6)
     n = torch.where(use_gap.unsqueeze(-1), gap_k / dist_k.clamp_min(1e-6).unsqueeze(-1), edge_normal)
     # back to the world frame: R(yaw) n

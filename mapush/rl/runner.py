@@ -41,9 +41,13 @@ class MapushRunner(OnPolicyRunner):
 def train_cfg_for(cfg: dict, num_agents: int, total_iterations: int) -> dict:
     """The rsl-rl runner dict: `algo` as configured, plus mapush's MCAP log writer."""
     train_cfg = copy.deepcopy(cfg["algo"])  # rsl-rl mutates what it is given
-    train_cfg["logger"] = {"class_name": "mapush.logging.metrics:McapLogWriter", "filename": "metrics.mcap",
-                           "total_iterations": total_iterations, "num_agents": num_agents,
-                           "progress": bool(cfg["train"]["progress"])}
+    train_cfg["logger"] = {
+        "class_name": "mapush.logging.metrics:McapLogWriter",
+        "filename": "metrics.mcap",
+        "total_iterations": total_iterations,
+        "num_agents": num_agents,
+        "progress": bool(cfg["train"]["progress"]),
+    }
     return train_cfg
 
 
@@ -78,8 +82,10 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
     except Exception as err:  # a truncated or foreign file
         raise BadInput(f"checkpoint {str(path)!r} is not an rsl-rl checkpoint ({type(err).__name__})") from None
     if trained_dim != obs_dim:
-        raise BadInput(f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
-                       f"{obs_dim}-d; valid: the task and agent count it was trained with")
+        raise BadInput(
+            f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
+            f"{obs_dim}-d; valid: the task and agent count it was trained with"
+        )
     runner.load(str(path), map_location=runner.device)
     return int(data["iter"])
 

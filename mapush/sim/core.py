@@ -82,9 +82,14 @@ class BatchSim:
         tilt = np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))
         robots = self.lowlevel.read(self.qpos, self.qvel)
         out = {
-            "object_xy": q[:, :2], "object_z": q[:, 2], "object_yaw": yaw, "object_tilt": tilt,
+            "object_xy": q[:, :2],
+            "object_z": q[:, 2],
+            "object_yaw": yaw,
+            "object_tilt": tilt,
             "object_vel": np.concatenate([v[:, :2], v[:, 5:6]], axis=1),
-            "robot_xy": robots["xy"], "robot_yaw": robots["yaw"], "robot_vel": robots["vel"],
+            "robot_xy": robots["xy"],
+            "robot_yaw": robots["yaw"],
+            "robot_vel": robots["vel"],
             "robot_tilt": robots["tilt"],
         }
         return {k: torch.from_numpy(np.ascontiguousarray(a, dtype=np.float32)) for k, a in out.items()}

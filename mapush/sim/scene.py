@@ -33,15 +33,26 @@ def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel) -> mujoco.MjSpec:
     world = spec.worldbody
     half = sim_cfg["arena_size"] / 2
     world.add_geom(
-        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[half, half, 0.1], contype=FLOOR_BITS,
-        conaffinity=FLOOR_BITS, friction=[sim_cfg["floor_friction"], 0.005, 0.0001], rgba=[0.8, 0.8, 0.8, 1],
+        name="floor",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[half, half, 0.1],
+        contype=FLOOR_BITS,
+        conaffinity=FLOOR_BITS,
+        friction=[sim_cfg["floor_friction"], 0.005, 0.0001],
+        rgba=[0.8, 0.8, 0.8, 1],
     )
     add_walls(world, half, sim_cfg["wall_height"], sim_cfg["wall_thickness"])
     add_object(world, task_cfg["object"])
     marker = world.add_body(name=SUBGOAL_BODY, mocap=True, pos=[0, 0, 0.05])
     # Visual only, as the original's target.urdf: a flat red disc, r = 0.5 m, 0.1 m high.
-    marker.add_geom(name="subgoal_disc", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.5, 0.05, 0], contype=0,
-                    conaffinity=0, rgba=[1, 0.1, 0.1, 0.4])
+    marker.add_geom(
+        name="subgoal_disc",
+        type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+        size=[0.5, 0.05, 0],
+        contype=0,
+        conaffinity=0,
+        rgba=[1, 0.1, 0.1, 0.4],
+    )
     for prefix in robot_prefixes(task_cfg["num_agents"]):
         spec.attach(lowlevel.robot_spec(), frame=world.add_frame(), prefix=prefix)
     return spec
@@ -56,8 +67,15 @@ def add_walls(world, half: float, height: float, thickness: float) -> None:
         ("wall_north", [0, offset], [half + thickness, thickness / 2, height / 2]),
         ("wall_south", [0, -offset], [half + thickness, thickness / 2, height / 2]),
     ):
-        world.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, pos=[*pos, height / 2], size=size,
-                       contype=OBJECT_BITS, conaffinity=OBJECT_BITS, rgba=[0.5, 0.5, 0.55, 1])
+        world.add_geom(
+            name=name,
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            pos=[*pos, height / 2],
+            size=size,
+            contype=OBJECT_BITS,
+            conaffinity=OBJECT_BITS,
+            rgba=[0.5, 0.5, 0.55, 1],
+        )
 
 
 def add_object(world, object_cfg: dict) -> None:
@@ -73,8 +91,14 @@ def add_object(world, object_cfg: dict) -> None:
     body.add_freejoint(name=OBJECT_JOINT)
     for k, part in enumerate(object_cfg["parts"]):
         px, py = part["pos"]
-        common = dict(name=f"object_part{k}", pos=[px, py, 0.0], mass=part["mass"], contype=OBJECT_BITS,
-                      conaffinity=OBJECT_BITS, rgba=[0.9, 0.55, 0.2, 1])
+        common = dict(
+            name=f"object_part{k}",
+            pos=[px, py, 0.0],
+            mass=part["mass"],
+            contype=OBJECT_BITS,
+            conaffinity=OBJECT_BITS,
+            rgba=[0.9, 0.55, 0.2, 1],
+        )
         if part["type"] == "box":
             sx_, sy_, sz_ = part["size"]
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[sx_ / 2, sy_ / 2, sz_ / 2], **common)
