@@ -50,13 +50,30 @@ def compose_config(overrides: list[str] | tuple[str, ...] = ()) -> DictConfig:
         try:
             return compose(config_name="config", overrides=overrides)
         except Exception as err:  # Hydra raises several types; all are the user's override mistakes
-            message = str(err).strip()
-            for override in overrides:
-                key = override.lstrip("+~").partition("=")[0]
-                if f"Key '{key.rpartition('.')[2]}' is not in struct" in message:
-                    base = compose(config_name="config", overrides=[o for o in overrides if o != override])
-                    raise BadInput(_unknown_key_message(base, key)) from None
-            raise BadInput(f"bad override: {message.splitlines()[0]}") from None
+            full_key = getattr(err.__cause__, "full_key", None)
+            if full_key and "not in struct" in str(err.__cause__):
+                base = compose(config_name="config", overrides=[o for o in overrides if full_key not in o])
+                raise BadInput(_unknown_key_message(base, str(full_key))) from None
+            raise BadInput(f"bad override: {str(err).strip().splitlines()[0]}") from None
+
+
+RUN_VALUES = {
+    "seed": (int, 0, "an integer >= 0"),
+    "num_envs": (int, 1, "an integer >= 1"),
+    "train.iterations": (int, 1, "an integer >= 1"),
+    "level.episode_length_s": (float, 1e-9, "a positive number of seconds"),
+    "level.success_distance": (float, 1e-9, "a positive distance in m"),
+}
+"""Values a user commonly overrides: (type, minimum, what is valid), checked before a run dir is made."""
+
+
+def check_run_values(cfg: DictConfig) -> None:
+    """BadInput for a mistyped or out-of-range run value (e.g. `seed=abc`, `num_envs=0`)."""
+    for key, (kind, minimum, valid) in RUN_VALUES.items():
+        value = OmegaConf.select(cfg, key)
+        ok = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
+        if not ok or value < minimum:
+            raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")
 
 
 def to_plain(cfg: DictConfig) -> dict:

@@ -11,12 +11,13 @@ from pathlib import Path
 from omegaconf import DictConfig
 
 import mapush
-from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
+from mapush.config import check_run_values, load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.observations import local_dim
 from mapush.errors import BadInput
 from mapush.rl.runner import (
     MapushRunner,
+    checkpoint_iteration,
     checkpoints,
     export_policy,
     learn,
@@ -54,6 +55,7 @@ def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     """Train a fresh run; returns its run dir."""
     if cfg.level.name != "mid":
         raise BadInput(f"level {cfg.level.name!r} cannot be trained yet; valid: mid")
+    check_run_values(cfg)
     plain = to_plain(cfg)
     MidPushEnv.validate(plain)
     run_dir = new_run_dir(cfg)
@@ -68,9 +70,13 @@ def resume(run_dir: Path, iterations: int | None) -> Path:
     cfg = load_run_config(run_dir)
     if iterations is not None:
         cfg.train.iterations = iterations
+    check_run_values(cfg)
     found = checkpoints(run_dir)
     if not found:
         raise BadInput(f"run dir {str(run_dir)!r} has no checkpoint to resume from; valid: a run with model_*.pt")
+    done = checkpoint_iteration(found[-1]) + 1
+    if done >= cfg.train.iterations:
+        raise BadInput(f"run {str(run_dir)!r} already has {done} iterations; valid: train.iterations=N with N > {done}")
     print(run_dir, flush=True)
     _run(to_plain(cfg), Path(run_dir), start=None, checkpoint=found[-1])
     return Path(run_dir)

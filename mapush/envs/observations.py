@@ -27,6 +27,11 @@ def local_dim(num_agents: int) -> int:
     return 6 + 4 * (num_agents - 1)
 
 
+def agents_for_local_dim(dim: int) -> int:
+    """The agent count whose local observation is `dim` wide (inverse of `local_dim`)."""
+    return (dim - 6) // 4 + 1
+
+
 def local_observation(env) -> torch.Tensor:
     """Each robot's view in its own frame (paper III-C; original layout, angles as cos/sin).
 

@@ -12,6 +12,7 @@ import numpy as np
 import torch
 from rsl_rl.runners import OnPolicyRunner
 
+from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
 from mapush.logging.metrics import IterationLogger
 
@@ -60,7 +61,12 @@ def seed_everything(seed: int) -> None:
 def checkpoints(run_dir: Path) -> list[Path]:
     """The run's checkpoints, oldest iteration first."""
     found = [p for p in Path(run_dir).glob("model_*.pt") if CHECKPOINT.search(p.name)]
-    return sorted(found, key=lambda p: int(CHECKPOINT.search(p.name).group(1)))
+    return sorted(found, key=checkpoint_iteration)
+
+
+def checkpoint_iteration(path: Path) -> int:
+    """The iteration in a checkpoint's file name (`model_<it>.pt`)."""
+    return int(CHECKPOINT.search(Path(path).name).group(1))
 
 
 def actor_input_dim(checkpoint: dict) -> int:
@@ -84,7 +90,8 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
     if trained_dim != obs_dim:
         raise BadInput(
             f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
-            f"{obs_dim}-d; valid: the task and agent count it was trained with"
+            f"{obs_dim}-d; valid: the task and agent count it was trained with "
+            f"(task.num_agents={agents_for_local_dim(trained_dim)})"
         )
     runner.load(str(path), map_location=runner.device)
     return int(data["iter"])

@@ -1,0 +1,66 @@
+"""`mapush train --resume RUN_DIR` continues the iteration count of a cut run."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+import torch
+from mcap.reader import make_reader
+
+
+def iterations_logged(path) -> set[int]:
+    with open(path, "rb") as f:
+        return {json.loads(m.data)["iteration"] for _, _, m in make_reader(f).iter_messages()}
+
+
+@pytest.fixture(scope="module")
+def resumed(run_cli, smoke_run, tmp_path_factory):
+    """A copy of the 2-iteration smoke run, continued to 4 iterations."""
+    run_dir = tmp_path_factory.mktemp("resume") / "run"
+    shutil.copytree(smoke_run, run_dir)
+    proc = run_cli(["train", "--resume", run_dir, "train.iterations=4"], cwd=run_dir.parent)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == str(run_dir)
+    return run_dir
+
+
+def test_resume_writes_the_next_checkpoints(resumed):
+    assert sorted(p.name for p in resumed.glob("model_*.pt")) == [
+        "model_0.pt",
+        "model_1.pt",
+        "model_2.pt",
+        "model_3.pt",
+    ]
+    assert torch.load(resumed / "model_3.pt", weights_only=False)["iter"] == 3
+
+
+def test_resume_does_not_repeat_the_loaded_iteration(resumed):
+    # the first run logged iterations 0, 1; the resumed one 2, 3 into a new metrics file
+    assert iterations_logged(resumed / "metrics.mcap") == {0, 1}
+    assert iterations_logged(resumed / "metrics.1.mcap") == {2, 3}
+    log = (resumed / "train.log").read_text()
+    assert log.count("Learning iteration 1/") == 1
+    assert "Learning iteration 2/4" in log
+
+
+def test_resume_keeps_the_earlier_checkpoints(resumed, smoke_run):
+    before = torch.load(smoke_run / "model_1.pt", weights_only=False)["actor_state_dict"]
+    after = torch.load(resumed / "model_1.pt", weights_only=False)["actor_state_dict"]
+    assert all(torch.equal(before[k], after[k]) for k in before)
+
+
+def test_resume_starts_from_the_last_checkpoint_weights(resumed):
+    # iteration 2 trains on top of model_1: its weights moved, but from model_1's (same shapes, not identical)
+    one = torch.load(resumed / "model_1.pt", weights_only=False)["actor_state_dict"]
+    two = torch.load(resumed / "model_2.pt", weights_only=False)["actor_state_dict"]
+    assert one.keys() == two.keys()
+    assert any(not torch.equal(one[k], two[k]) for k in one)
+
+
+def test_resuming_a_finished_run_is_refused_and_writes_no_new_checkpoint(cli, run_copy):
+    proc = cli("train", "--resume", run_copy)
+    assert proc.returncode == 2, proc.stderr
+    assert "already has 2 iterations" in proc.stderr and "train.iterations=N with N > 2" in proc.stderr
+    assert sorted(p.name for p in run_copy.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]

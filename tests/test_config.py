@@ -1,0 +1,78 @@
+"""Hydra composition: every option of every group composes, overrides apply, mistakes are BadInput."""
+
+from __future__ import annotations
+
+import pytest
+
+from mapush.config import apply_overrides, compose_config, group_options, to_plain
+from mapush.errors import BadInput
+
+
+@pytest.mark.parametrize("group", ["task", "critic", "lowlevel", "level", "reward", "algo", "debug"])
+def test_every_option_of_a_group_composes(group):
+    for option in group_options(group):
+        cfg = to_plain(compose_config([f"{group}={option}"]))
+        assert isinstance(cfg, dict)
+        if group in ("task", "lowlevel", "level"):
+            assert cfg[group]["name"] == option
+
+
+def test_group_options_are_the_yaml_files():
+    assert group_options("critic") == ["global", "local"]
+    assert group_options("lowlevel") == ["tracker"]
+
+
+def test_default_config_is_mid_cuboid_two_agents_mappo():
+    cfg = to_plain(compose_config())
+    assert (cfg["level"]["name"], cfg["task"]["name"], cfg["task"]["num_agents"]) == ("mid", "cuboid", 2)
+    assert cfg["algo"]["obs_groups"] == {"actor": ["policy"], "critic": ["critic"]}
+
+
+def test_local_critic_gives_the_critic_the_policy_observation():
+    cfg = to_plain(compose_config(["critic=local"]))
+    assert cfg["algo"]["obs_groups"] == {"actor": ["policy"], "critic": ["policy"]}
+
+
+def test_smoke_debug_shrinks_the_run():
+    cfg = to_plain(compose_config(["debug=smoke"]))
+    assert (cfg["num_envs"], cfg["train"]["iterations"], cfg["level"]["episode_length_s"]) == (4, 2, 1.0)
+
+
+def test_value_overrides_apply():
+    cfg = to_plain(compose_config(["task=tblock", "task.num_agents=3", "seed=7"]))
+    assert (cfg["task"]["name"], cfg["task"]["num_agents"], cfg["seed"]) == ("tblock", 3, 7)
+
+
+def test_unknown_group_option_is_bad_input_naming_the_options():
+    with pytest.raises(BadInput, match="unknown task 'sphere'; valid: cuboid, cylinder, ocb_cuboid, tblock"):
+        compose_config(["task=sphere"])
+
+
+def test_unknown_key_is_bad_input_naming_the_valid_keys():
+    with pytest.raises(BadInput, match=r"iterationz.*valid.*iterations"):
+        compose_config(["train.iterationz=3"])
+
+
+def test_unknown_reward_term_is_bad_input_naming_the_valid_terms():
+    with pytest.raises(BadInput, match=r"foo.*valid.*subgoal_reached"):
+        compose_config(["reward.terms.foo.weight=1"])
+
+
+def test_apply_overrides_changes_a_saved_config():
+    cfg = apply_overrides(compose_config(["debug=smoke"]), ["task.num_agents=3", "eval.episodes=5"])
+    assert (cfg.task.num_agents, cfg.eval.episodes) == (3, 5)
+
+
+def test_apply_overrides_swaps_a_group():
+    cfg = apply_overrides(compose_config(), ["task=cylinder"])
+    assert cfg.task.name == "cylinder"
+
+
+def test_apply_overrides_rejects_an_unknown_key_naming_the_valid_ones():
+    with pytest.raises(BadInput, match=r"'train.iterationz'.*valid keys under 'train': iterations"):
+        apply_overrides(compose_config(), ["train.iterationz=3"])
+
+
+def test_apply_overrides_rejects_a_group_that_cannot_change():
+    with pytest.raises(BadInput, match=r"'algo' cannot change.*valid: task, level, lowlevel, reward"):
+        apply_overrides(compose_config(), ["algo=mappo"])
