@@ -41,9 +41,8 @@ class MidPushEnv:
         self.sim = BatchSim(cfg["sim"], task, self.lowlevel, self.num_envs)
         self.rewards = RewardManager(cfg["reward"]["terms"])
         self.dt = self.sim.dt
-        self.max_episode_length = math.ceil(
-            level["episode_length_s"] / self.dt - 1e-9
-        )  # 0.14 / 0.02 = 7.000000000000001
+        # the tolerance keeps 0.14 s / 0.02 s = 7.000000000000001 at 7 steps
+        self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
         self.action_scale = torch.tensor(level["action_scale"], dtype=torch.float32)
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
         A = self.num_agents
