@@ -61,7 +61,7 @@ def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     run_dir = new_run_dir(cfg)
     save_run_config(run_dir, cfg, overrides, command)
     print(run_dir, flush=True)
-    _run(plain, run_dir, start=0)
+    _run(plain, run_dir)
     return run_dir
 
 
@@ -78,17 +78,18 @@ def resume(run_dir: Path, iterations: int | None) -> Path:
     if done >= cfg.train.iterations:
         raise BadInput(f"run {str(run_dir)!r} already has {done} iterations; valid: train.iterations=N with N > {done}")
     print(run_dir, flush=True)
-    _run(to_plain(cfg), Path(run_dir), start=None, checkpoint=found[-1])
+    _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1])
     return Path(run_dir)
 
 
-def _run(cfg: dict, run_dir: Path, start: int | None, checkpoint: Path | None = None) -> None:
+def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
+    """Train `run_dir` up to `train.iterations`, from scratch or from `checkpoint`, then export the policy."""
     _exit_on_sigterm()
     total = int(cfg["train"]["iterations"])
     env, runner = build(cfg, run_dir, total)
+    done = 0
     if checkpoint is not None:
         done = load_checkpoint(runner, checkpoint, local_dim(env.num_agents), "the run's config") + 1
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
-        start = done
-    learn(runner, max(total - start, 0), run_dir / "train.log")
+    learn(runner, total - done, run_dir / "train.log")
     export_policy(runner, run_dir)

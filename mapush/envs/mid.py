@@ -52,6 +52,7 @@ class MidPushEnv:
         E = self.num_envs
         self.episode_step = torch.zeros(E, dtype=torch.long)
         self.subgoal_xy = torch.zeros(E, 2)
+        self.prev_subgoal_distance = torch.zeros(E)  # set by reset(), then after every step's rewards
         self.success = torch.zeros(E, dtype=torch.bool)
         self.exception = torch.zeros(E, dtype=torch.bool)
         self.episode_sums = {name: torch.zeros(E, A) for name in self.rewards.terms}
@@ -89,8 +90,6 @@ class MidPushEnv:
         self.subgoal_distance = torch.linalg.vector_norm(self.object_xy - self.subgoal_xy, dim=-1)
         # (E, A, A) distances between robot centres; the diagonal is 0 (torch.cdist is ~100x slower at this size)
         self.robot_distance = torch.linalg.vector_norm(self.robot_xy.unsqueeze(2) - self.robot_xy.unsqueeze(1), dim=-1)
-        if not hasattr(self, "prev_subgoal_distance"):
-            self.prev_subgoal_distance = self.subgoal_distance.clone()
 
     # ----------------------------------------------------------------------------------------------------------
     def observations(self) -> dict[str, torch.Tensor]:

@@ -37,7 +37,7 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int) -> dict:
     """One episode in each of `episodes` envs with the deterministic policy; per-episode outcomes."""
     from mapush.train import build  # late: train imports this module's neighbours
 
-    cfg = {**cfg, "seed": seed, "num_envs": episodes, "train": {**cfg["train"], "progress": False}}
+    cfg = {**cfg, "seed": seed, "num_envs": episodes}
     env, runner = build(cfg, None, 0)
     load_checkpoint(
         runner, checkpoint, local_dim(env.num_agents), f"task {cfg['task']['name']} with {env.num_agents} agents"

@@ -38,7 +38,7 @@ class AgentRowsVecEnv(VecEnv):
         self.env = env
         self.num_agents = env.num_agents
         self.num_envs = env.num_envs * env.num_agents
-        self.num_actions = 3
+        self.num_actions = len(env.action_scale)  # (vx, vy, yaw rate) for the mid level
         self.max_episode_length = env.max_episode_length
         self.device = device
         self.cfg = env.cfg
