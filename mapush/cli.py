@@ -1,4 +1,4 @@
-"""The `mapush` command line: train, eval, bench. Every command takes Hydra overrides (`key=value`)."""
+"""The `mapush` command line: train, eval, bench, logs, plot. Every command takes Hydra overrides (`key=value`)."""
 
 from __future__ import annotations
 
@@ -50,8 +50,9 @@ def evaluate(
     target: Path = typer.Argument(..., help="A run dir (its latest checkpoint) or a model_<it>.pt file."),
     episodes: int | None = typer.Option(None, "--episodes", help="Trials per seed (default: eval.episodes)."),
     seeds: str | None = typer.Option(None, "--seeds", help="Comma-separated seeds (default: eval.seeds)."),
+    live: bool = typer.Option(False, "--live", help="Also stream env 0 to Foxglove (ws://127.0.0.1:log.live_port)."),
 ) -> None:
-    """Evaluate deterministically; writes eval.json (success rate, completion time) into the run dir."""
+    """Evaluate deterministically; writes eval.json (success rate, completion time) and episodes.mcap."""
     import json
 
     from mapush.eval.rollout import evaluate as run_eval
@@ -59,7 +60,7 @@ def evaluate(
     seed_list = _int_list(seeds, "--seeds") if seeds else None
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    out = run_eval(target, episodes, seed_list, list(ctx.args))
+    out = run_eval(target, episodes, seed_list, list(ctx.args), live=live)
     result = json.loads(out.read_text())
     print(
         f"success rate {100 * result['success_rate']:.1f} +- {100 * result['success_rate_std']:.1f} % | "
@@ -87,6 +88,64 @@ def bench(
         json_path.write_text(text + "\n")
 
 
+logs = typer.Typer(no_args_is_help=True, help="Inspect and repair MCAP logs (metrics.mcap, episodes.mcap).")
+app.add_typer(logs, name="logs")
+
+
+@logs.command()
+def summary(file: Path = typer.Argument(..., help="An .mcap file, finished or cut.")) -> None:
+    """Print the topics (schema, message count), the time span and whether the file is complete."""
+    from datetime import UTC, datetime
+
+    from mapush.logging.mcap_files import summary as read_summary
+
+    info = read_summary(file)
+    state = "complete" if info["complete"] else "CUT (no index: run `mapush logs recover` for an indexed copy)"
+    print(f"{info['file']}: {state}")
+    if info["messages"]:
+        start = datetime.fromtimestamp(info["start_ns"] / 1e9, tz=UTC).isoformat(timespec="milliseconds")
+        print(f"{info['messages']} messages over {info['duration_s']:.3f} s from {start}")
+    else:
+        print("0 messages")
+    width = max((len(t) for t in info["topics"]), default=5)
+    for topic, row in info["topics"].items():
+        print(f"  {topic:<{width}}  {row['messages']:>8}  {row['schema']}")
+    for kind in ("metadata", "attachments"):
+        if info[kind]:
+            print(f"{kind}: {', '.join(info[kind])}")
+
+
+@logs.command()
+def recover(
+    file: Path = typer.Argument(..., help="A cut .mcap file (e.g. from a killed run)."),
+    out: Path = typer.Option(..., "-o", "--out", help="Where to write the readable, indexed copy."),
+) -> None:
+    """Copy every complete record of a cut MCAP file into a readable, indexed file."""
+    from mapush.logging.mcap_files import recover as recover_file
+
+    if out.resolve() == file.resolve():
+        raise BadInput(f"-o {str(out)!r} is the input file; valid: another path (the original is kept)")
+    result = recover_file(file, out)
+    cut = "" if result["complete_source"] else " (the source was cut)"
+    print(f"recovered {result['messages']} messages{cut} into {result['file']}")
+
+
+@app.command()
+def plot(
+    run_dirs: list[Path] = typer.Argument(..., help="Run dirs; runs differing only in seed become mean +- std."),
+    out: Path | None = typer.Option(
+        None, "-o", "--out", help="PNG (default: RUN_DIR/curves.png, or ./curves.png for several runs)."
+    ),
+    smooth: int = typer.Option(5, "--smooth", help="Moving-average window in logged points (1 = raw)."),
+) -> None:
+    """Draw learning curves (success rate, reward terms) from metrics.mcap as a PNG."""
+    from mapush.plot import plot_runs
+
+    if out is None:
+        out = run_dirs[0] / "curves.png" if len(run_dirs) == 1 else Path("curves.png")
+    print(plot_runs(run_dirs, out, smooth))
+
+
 def _int_list(text: str, flag: str) -> list[int]:
     try:
         return [int(x) for x in text.split(",") if x.strip()]
@@ -101,3 +160,9 @@ def main() -> None:
     except BadInput as err:
         print(f"mapush: error: {err}", file=sys.stderr)
         sys.exit(2)
+    except KeyboardInterrupt:
+        print(
+            "mapush: interrupted; logs are closed (a run continues with `mapush train --resume RUN_DIR`)",
+            file=sys.stderr,
+        )
+        sys.exit(130)

@@ -112,11 +112,16 @@ def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], comman
 
 
 def load_run_config(run_dir: Path) -> DictConfig:
-    """The composed config a run was made with; BadInput if `run_dir` is not a run."""
+    """The composed config a run was made with; BadInput if `run_dir` is not a run.
+
+    Root settings added to mapush after the run was made (e.g. `log`) take their current defaults.
+    """
     path = Path(run_dir) / "config.yaml"
     if not Path(run_dir).is_dir() or not path.is_file():
         raise BadInput(f"{str(run_dir)!r} is not a run dir (no config.yaml); valid: a dir that `mapush train` made")
-    return OmegaConf.load(path)
+    root = OmegaConf.load(CONF_DIR / "config.yaml")
+    root.pop("defaults")
+    return OmegaConf.merge(root, OmegaConf.load(path))
 
 
 SWAPPABLE_GROUPS = ("task", "level", "lowlevel", "reward")

@@ -12,9 +12,13 @@ from omegaconf import DictConfig
 
 import mapush
 from mapush.config import check_run_values, load_run_config, new_run_dir, save_run_config, to_plain
-from mapush.envs.mid import MidPushEnv
+from mapush.envs.mid import EXCEPTIONS, MidPushEnv
 from mapush.envs.observations import local_dim
 from mapush.errors import BadInput
+from mapush.logging.episodes import EpisodeRecorder
+from mapush.logging.mcap_files import repair_in_place
+from mapush.logging.metrics import next_free_path
+from mapush.logging.scene import SceneLayout
 from mapush.rl.runner import (
     MapushRunner,
     checkpoint_iteration,
@@ -27,8 +31,10 @@ from mapush.rl.runner import (
 )
 from mapush.rl.vecenv import AgentRowsVecEnv
 
+TRAIN_EPISODES = "train_episodes.mcap"
 
-def _exit_on_sigterm() -> None:
+
+def exit_on_sigterm() -> None:
     """Turn SIGTERM into SystemExit so that `finally` blocks close the MCAP file (libraries.md 3.5)."""
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
@@ -78,18 +84,46 @@ def resume(run_dir: Path, iterations: int | None) -> Path:
     if done >= cfg.train.iterations:
         raise BadInput(f"run {str(run_dir)!r} already has {done} iterations; valid: train.iterations=N with N > {done}")
     print(run_dir, flush=True)
+    _repair_cut_logs(Path(run_dir))
     _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1])
     return Path(run_dir)
 
 
 def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     """Train `run_dir` up to `train.iterations`, from scratch or from `checkpoint`, then export the policy."""
-    _exit_on_sigterm()
+    exit_on_sigterm()
     total = int(cfg["train"]["iterations"])
     env, runner = build(cfg, run_dir, total)
     done = 0
     if checkpoint is not None:
         done = load_checkpoint(runner, checkpoint, local_dim(env.num_agents), "the run's config") + 1
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
-    learn(runner, total - done, run_dir / "train.log")
+    recorder = _training_recorder(cfg, env, run_dir)
+    try:
+        learn(runner, total - done, run_dir / "train.log")
+    finally:
+        if recorder is not None:
+            recorder.close()
     export_policy(runner, run_dir)
+
+
+def _training_recorder(cfg: dict, env: MidPushEnv, run_dir: Path) -> EpisodeRecorder | None:
+    """Record env 0's next whole episode every `log.episode_interval` iterations into `train_episodes.mcap`."""
+    interval = int(cfg["log"]["episode_interval"])
+    if interval <= 0:
+        return None
+    path = Path(next_free_path(str(run_dir / TRAIN_EPISODES)))
+    recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), EXCEPTIONS)
+    recorder.watch([0], env.dt, "training", from_start=False, every_steps=interval * cfg["algo"]["num_steps_per_env"])
+    env.recorders.append(recorder)
+    return recorder
+
+
+def _repair_cut_logs(run_dir: Path) -> None:
+    """Make the MCAP files a killed run left behind readable again before it continues."""
+    for path in sorted(run_dir.glob("*.mcap")):
+        try:
+            if repair_in_place(path):
+                print(f"mapush: recovered the cut log {path}", file=sys.stderr)
+        except BadInput as err:
+            print(f"mapush: warning: {err}; left as it is", file=sys.stderr)

@@ -19,6 +19,9 @@ from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
 from mapush.sim.shapes import object_hull
 
+EXCEPTIONS = ("diverged", "robot_collision", "object_tilt", "robot_tilt")
+"""Named exceptions (paper III-C: r_exception); `exception_kind` indexes this tuple, the first that fired wins."""
+
 RECENT_EPISODES = 500
 """Episodes in the rolling success rate that is logged every step (`Metrics/recent_success_rate`)."""
 
@@ -55,6 +58,8 @@ class MidPushEnv:
         self.prev_subgoal_distance = torch.zeros(E)  # set by reset(), then after every step's rewards
         self.success = torch.zeros(E, dtype=torch.bool)
         self.exception = torch.zeros(E, dtype=torch.bool)
+        self.exception_kind = torch.full((E,), -1)
+        self.recorders = []  # EpisodeRecorder / LiveView (mapush.logging.episodes) watching some envs
         self.episode_sums = {name: torch.zeros(E, A) for name in self.rewards.terms}
         self.recent_success = torch.full((RECENT_EPISODES,), float("nan"))  # ring buffer of the latest outcomes
         self._recent_next = 0
@@ -91,6 +96,17 @@ class MidPushEnv:
         # (E, A, A) distances between robot centres; the diagonal is 0 (torch.cdist is ~100x slower at this size)
         self.robot_distance = torch.linalg.vector_norm(self.robot_xy.unsqueeze(2) - self.robot_xy.unsqueeze(1), dim=-1)
 
+    def scene_frame(self) -> dict[str, torch.Tensor]:
+        """What a viewer draws of every env now (before resets): poses (E, ...) and the subgoal (E, 2)."""
+        return {
+            "object_xy": self.object_xy,
+            "object_z": self.object_z,
+            "object_yaw": self.object_yaw,
+            "robot_xy": self.robot_xy,
+            "robot_yaw": self.robot_yaw,
+            "subgoal_xy": self.subgoal_xy,
+        }
+
     # ----------------------------------------------------------------------------------------------------------
     def observations(self) -> dict[str, torch.Tensor]:
         """`policy`: (E, A, local dim) and `critic`: (E, A, global dim), NaN-free."""
@@ -120,12 +136,16 @@ class MidPushEnv:
         diverged[torch.from_numpy(failed)] = True
         diverged |= ~torch.isfinite(self.object_xy).all(-1) | ~torch.isfinite(self.robot_xy).flatten(1).all(-1)
         pair = self.robot_distance + torch.eye(self.num_agents) * 1e9
-        self.exception = (
-            diverged
-            | (pair < task["collision_distance"]).flatten(1).any(-1)
-            | (self.object_tilt > level["object_max_tilt"])
-            | (self.robot_tilt > level["robot_max_tilt"]).any(-1)
-        )
+        exceptions = torch.stack(
+            [
+                diverged,
+                (pair < task["collision_distance"]).flatten(1).any(-1),
+                self.object_tilt > level["object_max_tilt"],
+                (self.robot_tilt > level["robot_max_tilt"]).any(-1),
+            ]
+        )  # (kinds, E) in the order of EXCEPTIONS
+        self.exception = exceptions.any(0)
+        self.exception_kind = torch.where(self.exception, exceptions.int().argmax(0), -1)
         self.success &= ~self.exception
         terminated = self.success | self.exception
         truncated = (self.episode_step >= self.max_episode_length) & ~terminated
@@ -137,6 +157,8 @@ class MidPushEnv:
         self.prev_subgoal_distance = self.subgoal_distance.clone()
 
         done = terminated | truncated
+        for recorder in self.recorders:
+            recorder.capture(self, commands, reward, parts, done)
         info = self._episode_info(done, diverged)
         self.reset(done.nonzero().flatten().numpy())
         return self.observations(), reward, terminated, truncated, info
@@ -148,6 +170,7 @@ class MidPushEnv:
             "success": self.success & done,
             "exception": self.exception & done,
             "diverged": diverged & done,
+            "exception_kind": torch.where(done, self.exception_kind, -1),
             "time_s": self.episode_step.float() * self.dt,
         }
         if not done.any():

@@ -8,15 +8,22 @@ by the timeout (paper IV-B-1). Seeds give the mean +- std.
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
+from mapush.envs.mid import EXCEPTIONS
 from mapush.envs.observations import local_dim
 from mapush.errors import BadInput
+from mapush.logging.episodes import EpisodeRecorder, LiveView
+from mapush.logging.scene import SceneLayout
+from mapush.rewards.manager import RewardManager
 from mapush.rl.runner import checkpoints, load_checkpoint
+
+EPISODES = "episodes.mcap"
 
 
 def resolve_checkpoint(target: Path) -> tuple[Path, Path]:
@@ -33,12 +40,22 @@ def resolve_checkpoint(target: Path) -> tuple[Path, Path]:
     return target, found[-1]
 
 
-def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int) -> dict:
-    """One episode in each of `episodes` envs with the deterministic policy; per-episode outcomes."""
+def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorders: tuple = ()) -> dict:
+    """One episode in each of `episodes` envs with the deterministic policy; per-episode outcomes.
+
+    `recorders` (EpisodeRecorder, LiveView) watch the first envs' episodes.
+    """
     from mapush.train import build  # late: train imports this module's neighbours
 
     cfg = {**cfg, "seed": seed, "num_envs": episodes}
     env, runner = build(cfg, None, 0)
+    for recorder in recorders:
+        if isinstance(recorder, EpisodeRecorder):
+            count = min(int(cfg["log"]["eval_episodes"]), episodes)
+            recorder.watch(list(range(count)), env.dt, f"seed {seed}", from_start=True)
+        else:
+            recorder.watch(env.dt, f"seed {seed}")
+        env.recorders.append(recorder)
     load_checkpoint(
         runner, checkpoint, local_dim(env.num_agents), f"task {cfg['task']['name']} with {env.num_agents} agents"
     )
@@ -71,16 +88,28 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int) -> dict:
     }
 
 
-def evaluate(target: Path, episodes: int | None, seeds: list[int] | None, overrides: list[str] = ()) -> Path:
+def evaluate(
+    target: Path, episodes: int | None, seeds: list[int] | None, overrides: list[str] = (), live: bool = False
+) -> Path:
     """Evaluate a run dir or checkpoint over seeds; writes and returns `eval.json` in the run dir.
 
-    `overrides` (e.g. `task.num_agents=3`, `lowlevel=tracker`) change the run's config for this evaluation.
+    `overrides` (e.g. `task.num_agents=3`, `lowlevel=tracker`) change the run's config for this evaluation. The
+    first `log.eval_episodes` episodes of each seed go to `episodes.mcap`; `live` also streams env 0 to Foxglove
+    at real time on 127.0.0.1:`log.live_port`.
     """
+    from mapush.train import exit_on_sigterm
+
     run_dir, checkpoint = resolve_checkpoint(target)
     cfg = to_plain(apply_overrides(load_run_config(run_dir), overrides))
     episodes = episodes or cfg["eval"]["episodes"]
     seeds = seeds if seeds else list(cfg["eval"]["seeds"])
-    per_seed = [run_episodes(cfg, checkpoint, episodes, s) for s in seeds]
+    exit_on_sigterm()
+    recorders = _eval_recorders(cfg, run_dir, live)
+    try:
+        per_seed = [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
+    finally:
+        for recorder in recorders:
+            recorder.close()
     sr = np.array([r["success_rate"] for r in per_seed])
     result = {
         "checkpoint": str(checkpoint),
@@ -99,3 +128,16 @@ def evaluate(target: Path, episodes: int | None, seeds: list[int] | None, overri
     out = run_dir / "eval.json"
     out.write_text(json.dumps(result, indent=2) + "\n")
     return out
+
+
+def _eval_recorders(cfg: dict, run_dir: Path, live: bool) -> list:
+    """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
+    layout, terms = SceneLayout.from_config(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
+    recorders: list = []
+    if int(cfg["log"]["eval_episodes"]) > 0:
+        recorders.append(EpisodeRecorder(run_dir / EPISODES, layout, terms, EXCEPTIONS))
+    if live:
+        view = LiveView(layout, terms, EXCEPTIONS, int(cfg["log"]["live_port"]))
+        print(f"live view: open Foxglove on ws://127.0.0.1:{view.port}", file=sys.stderr, flush=True)
+        recorders.append(view)
+    return recorders

@@ -1,8 +1,18 @@
 """Training scalars to `metrics.mcap`, through an rsl-rl LogWriter, plus the live progress line.
 
-Each scalar tag becomes the topic `/metrics/<tag>` (e.g. `/metrics/Metrics/success_rate`) with JSON messages
-{"iteration": int, "value": float}; the composed config is stored as an attachment. The file is flushed at the end
-of every iteration, so a crash loses at most the iteration in progress.
+Each scalar tag becomes the topic `/metrics/<tag>` with JSON messages {"iteration": int, "value": float}
+(schema `mapush.Scalar`). The stable tags:
+
+- `Reward/<term>`: each reward term's mean episode sum over the episodes that ended in the iteration;
+- `Metrics/success_rate`, `Metrics/exception_rate`, `Metrics/episode_time_s`, `Metrics/recent_success_rate`
+  (the last 500 episodes), `Train/mean_episode_length` (steps), `Train/mean_reward`;
+- `Loss/<name>` (rsl-rl's PPO losses), `Loss/learning_rate`, `Policy/mean_std` (action std);
+- `Perf/env_steps_per_s` (env-steps, all robots of an env together), `Perf/total_fps` (rsl-rl's agent rows/s),
+  `Perf/collection_time`, `Perf/learning_time`.
+
+The run's `config.yaml` and `meta.json` (git commit, command) are attached, and `meta.json`'s fields stored as the
+metadata record `run`, as soon as the file opens; the rsl-rl config dicts follow. The file is flushed at the end
+of every iteration, so a crash loses at most the iteration in progress (`mapush logs recover` restores the rest).
 """
 
 from __future__ import annotations
@@ -62,6 +72,24 @@ class McapLogWriter(LogWriter):
         self.total_iterations, self.num_agents, self.progress = total_iterations, num_agents, progress
         self._started = time.time()
         self._first_iteration: int | None = None
+        self._attach_run_files(log_dir)
+
+    def _attach_run_files(self, log_dir: str) -> None:
+        """The run's config and provenance, written and flushed at once: the file never starts out empty."""
+        now = time.time_ns()
+        for name, media in (("config.yaml", "application/yaml"), ("meta.json", "application/json")):
+            path = os.path.join(log_dir, name)
+            if os.path.isfile(path):
+                with open(path, "rb") as f:
+                    self._writer.add_attachment(now, now, name, media, f.read())
+        meta_path = os.path.join(log_dir, "meta.json")
+        if os.path.isfile(meta_path):
+            with open(meta_path) as f:
+                meta = json.load(f)
+            as_text = {k: v if isinstance(v, str) else json.dumps(v) for k, v in meta.items()}
+            self._writer.add_metadata("run", as_text)
+        self._writer.flush()
+        self._file.flush()
 
     def add_scalar(self, tag: str, scalar_value: float, global_step: int) -> None:
         """Record one scalar of an iteration."""
@@ -76,6 +104,8 @@ class McapLogWriter(LogWriter):
             channel, now, json.dumps({"iteration": int(global_step), "value": value}).encode(), now
         )
         self._latest[tag] = value
+        if tag == "Perf/total_fps":
+            self.add_scalar("Perf/env_steps_per_s", value / self.num_agents, global_step)
 
     def store_config(self, env_cfg: dict | object, train_cfg: dict) -> None:
         """Attach the composed config (env side) and the rsl-rl runner dict."""
@@ -97,7 +127,7 @@ class McapLogWriter(LogWriter):
         done = it + 1 - self._first_iteration
         left = max(self.total_iterations - it - 1, 0)
         eta = (time.time() - self._started) / max(done, 1) * left
-        steps = self._latest.get("Perf/total_fps", 0.0) / self.num_agents
+        steps = self._latest.get("Perf/env_steps_per_s", 0.0)
         return (
             f"iter {it + 1}/{self.total_iterations} | {steps:,.0f} env-steps/s | "
             f"reward {self._latest.get('Train/mean_reward', float('nan')):.3f} | "
