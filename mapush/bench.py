@@ -10,7 +10,9 @@ from __future__ import annotations
 import os
 import platform
 import resource
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -40,15 +42,33 @@ def _time_raw(env: MidPushEnv, steps: int, rng: np.random.Generator) -> float:
     return env.num_envs * steps / (time.perf_counter() - start)
 
 
-def _time_training(cfg: dict, iterations: int) -> float:
-    from mapush.train import build
+def _time_training(cfg: dict, iterations: int) -> tuple[float, float]:
+    """Training env-steps/s without any logging and with all of it, timed alternately; best round of each.
 
-    _, runner = build(cfg, None, iterations)
-    runner.learn(1)  # warm-up: allocations, first normalizer updates
-    start = time.perf_counter()
-    runner.learn(iterations)
-    elapsed = time.perf_counter() - start
-    return iterations * cfg["algo"]["num_steps_per_env"] * cfg["num_envs"] / elapsed
+    "All of it" is the heaviest setting: `metrics.mcap` with its per-iteration flush, the progress line, rsl-rl's
+    console report to `train.log`, and env 0's every episode recorded to an episode file.
+    """
+    from mapush.rl.runner import learn
+    from mapush.train import attach_episode_recorder, build
+
+    steps = iterations * cfg["algo"]["num_steps_per_env"] * cfg["num_envs"]
+    with tempfile.TemporaryDirectory() as tmp:
+        run_dir = Path(tmp)
+        _, plain = build(cfg, None, iterations)
+        env, logged = build({**cfg, "train": {**cfg["train"], "progress": False}}, run_dir, iterations)
+        recorder = attach_episode_recorder(cfg, env, run_dir / "episodes.mcap", every_steps=1)
+        plain.learn(1)  # warm-up: allocations, first normalizer updates
+        learn(logged, 1, run_dir / "train.log")
+        plain_rates, logged_rates = [], []
+        for _ in range(ROUNDS):
+            start = time.perf_counter()
+            plain.learn(iterations)
+            plain_rates.append(steps / (time.perf_counter() - start))
+            start = time.perf_counter()
+            learn(logged, iterations, run_dir / "train.log")
+            logged_rates.append(steps / (time.perf_counter() - start))
+        recorder.close()
+    return max(plain_rates), max(logged_rates)
 
 
 def run_bench(cfg: DictConfig) -> dict:
@@ -64,7 +84,7 @@ def run_bench(cfg: DictConfig) -> dict:
         raw_rates.append(_time_raw(env, steps, rng))
         env_rates.append(_time_env(env, steps, gen))
     del env
-    train_rate = _time_training(plain, int(cfg.bench.train_iterations))
+    train_rate, logged_rate = _time_training(plain, int(cfg.bench.train_iterations))
     env_best, raw_best = max(env_rates), max(raw_rates)
     return {
         "task": cfg.task.name,
@@ -76,6 +96,8 @@ def run_bench(cfg: DictConfig) -> dict:
         "raw_sim_steps_per_s": round(raw_best),
         "env_to_raw_ratio": round(env_best / raw_best, 3),
         "train_steps_per_s": round(train_rate),
+        "train_steps_per_s_logged": round(logged_rate),
+        "logging_overhead": round(1 - logged_rate / train_rate, 3),
         "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
         "cores": os.cpu_count(),
         "torch_threads": torch.get_num_threads(),

@@ -130,6 +130,25 @@ def recover(
     print(f"recovered {result['messages']} messages{cut} into {result['file']}")
 
 
+@logs.command(context_settings=PASS_THROUGH)
+def layout(
+    ctx: typer.Context,
+    out: Path | None = typer.Option(None, "-o", "--out", help="Write here instead of printing."),
+) -> None:
+    """The Foxglove layout (3D scene, command and reward plots, episode log) for a config's episode files."""
+    from mapush.config import compose_config, to_plain
+    from mapush.logging.layout import episode_layout
+    from mapush.rewards.manager import RewardManager
+
+    cfg = to_plain(compose_config(list(ctx.args)))
+    text = episode_layout(list(RewardManager(cfg["reward"]["terms"]).terms)).to_json()
+    if out is None:
+        print(text)
+    else:
+        out.write_text(text + "\n")
+        print(out)
+
+
 @app.command()
 def plot(
     run_dirs: list[Path] = typer.Argument(..., help="Run dirs; runs differing only in seed become mean +- std."),

@@ -98,7 +98,11 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     if checkpoint is not None:
         done = load_checkpoint(runner, checkpoint, local_dim(env.num_agents), "the run's config") + 1
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
-    recorder = _training_recorder(cfg, env, run_dir)
+    interval = int(cfg["log"]["episode_interval"])
+    recorder = None
+    if interval > 0:
+        every_steps = interval * int(cfg["algo"]["num_steps_per_env"])
+        recorder = attach_episode_recorder(cfg, env, Path(next_free_path(str(run_dir / TRAIN_EPISODES))), every_steps)
     try:
         learn(runner, total - done, run_dir / "train.log")
     finally:
@@ -107,14 +111,10 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     export_policy(runner, run_dir)
 
 
-def _training_recorder(cfg: dict, env: MidPushEnv, run_dir: Path) -> EpisodeRecorder | None:
-    """Record env 0's next whole episode every `log.episode_interval` iterations into `train_episodes.mcap`."""
-    interval = int(cfg["log"]["episode_interval"])
-    if interval <= 0:
-        return None
-    path = Path(next_free_path(str(run_dir / TRAIN_EPISODES)))
+def attach_episode_recorder(cfg: dict, env: MidPushEnv, path: Path, every_steps: int) -> EpisodeRecorder:
+    """Record env 0's next whole episode after every `every_steps` env steps into `path` (training episodes)."""
     recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), EXCEPTIONS)
-    recorder.watch([0], env.dt, "training", from_start=False, every_steps=interval * cfg["algo"]["num_steps_per_env"])
+    recorder.watch([0], env.dt, "training", from_start=False, every_steps=every_steps)
     env.recorders.append(recorder)
     return recorder
 

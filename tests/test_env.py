@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
+from mapush.envs.mid import EXCEPTIONS
 from mapush.rewards import terms
 
 ZERO = torch.zeros(4, 2, 3)  # 4 envs x 2 agents, standing still
@@ -152,6 +153,7 @@ def test_robots_closer_than_the_collision_distance_end_the_episode_as_an_excepti
     assert info["episode_end"]["exception"].tolist() == [False, False, True, False]
     assert info["episode_end"]["success"].tolist() == [False] * 4
     assert reward[2].max().item() < -4.0  # exception weight -5
+    assert info["episode_end"]["exception_kind"].tolist() == [-1, -1, EXCEPTIONS.index("robot_collision"), -1]
 
 
 def test_agent_proximity_in_the_env_uses_the_current_robot_positions(env):
