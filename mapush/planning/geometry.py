@@ -1,0 +1,96 @@
+"""Obstacle geometry shared by the sampler, the planner and the high-level env: rotated rectangles in the plane.
+
+An obstacle is a row (cx, cy, yaw, sx, sy): centre, heading and full side lengths, in m and rad. Absent obstacles
+(fewer than the maximum count) are parked far outside the arena, so they never matter to distances or contacts.
+"""
+
+from __future__ import annotations
+
+import torch
+
+PARKED = 1000.0
+"""x (m) of parked obstacles, far outside any arena."""
+
+
+def parked(n: int, count: int, size: float) -> torch.Tensor:
+    """(n, count, 5) obstacles parked out of the way, 3 m apart."""
+    rows = torch.zeros(n, count, 5)
+    rows[..., 0] = PARKED + 3.0 * torch.arange(count)
+    rows[..., 1] = PARKED
+    rows[..., 3:] = size
+    return rows
+
+
+def corners(obstacles: torch.Tensor) -> torch.Tensor:
+    """Footprint corners, counter-clockwise: (..., 5) -> (..., 4, 2)."""
+    c, s = torch.cos(obstacles[..., 2]), torch.sin(obstacles[..., 2])
+    hx, hy = obstacles[..., 3] / 2, obstacles[..., 4] / 2
+    local = torch.stack(
+        [
+            torch.stack([-hx, -hy], -1),
+            torch.stack([hx, -hy], -1),
+            torch.stack([hx, hy], -1),
+            torch.stack([-hx, hy], -1),
+        ],
+        -2,
+    )  # (..., 4, 2)
+    rot_x = c.unsqueeze(-1) * local[..., 0] - s.unsqueeze(-1) * local[..., 1]
+    rot_y = s.unsqueeze(-1) * local[..., 0] + c.unsqueeze(-1) * local[..., 1]
+    return torch.stack([rot_x, rot_y], -1) + obstacles[..., None, :2]
+
+
+def point_distance(points: torch.Tensor, obstacles: torch.Tensor) -> torch.Tensor:
+    """Distance from each point to each obstacle's footprint, 0 inside.
+
+    Args:
+        points: (..., P, 2).
+        obstacles: (..., K, 5).
+
+    Returns:
+        (..., P, K).
+    """
+    rel = points.unsqueeze(-2) - obstacles[..., None, :, :2]  # (..., P, K, 2)
+    c, s = torch.cos(obstacles[..., 2]).unsqueeze(-2), torch.sin(obstacles[..., 2]).unsqueeze(-2)
+    local_x = (c * rel[..., 0] + s * rel[..., 1]).abs() - obstacles[..., 3].unsqueeze(-2) / 2
+    local_y = (-s * rel[..., 0] + c * rel[..., 1]).abs() - obstacles[..., 4].unsqueeze(-2) / 2
+    return torch.linalg.vector_norm(torch.stack([local_x.clamp(min=0), local_y.clamp(min=0)], -1), dim=-1)
+
+
+def polygon_gap(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """Separating-axis gap between convex polygons: > 0 apart (a lower bound of their distance), <= 0 overlapping.
+
+    Args:
+        a: (..., N, 2) vertices in order; b: (..., M, 2). Leading dims broadcast.
+
+    Returns:
+        (...,) the largest gap over the edge normals of both polygons.
+    """
+    shape = torch.broadcast_shapes(a.shape[:-2], b.shape[:-2])
+    a, b = a.expand(*shape, *a.shape[-2:]), b.expand(*shape, *b.shape[-2:])
+    axes = torch.cat([_edge_normals(a), _edge_normals(b)], -2).transpose(-1, -2)  # (..., 2, N + M)
+    pa, pb = a @ axes, b @ axes  # projections: (..., N, N + M), (..., M, N + M)
+    gap = torch.maximum(pb.amin(-2) - pa.amax(-2), pa.amin(-2) - pb.amax(-2))
+    return gap.amax(-1)
+
+
+def _edge_normals(poly: torch.Tensor) -> torch.Tensor:
+    edges = torch.roll(poly, -1, dims=-2) - poly
+    normal = torch.stack([edges[..., 1], -edges[..., 0]], -1)
+    return normal / torch.linalg.vector_norm(normal, dim=-1, keepdim=True).clamp(min=1e-9)
+
+
+def rectangles(xy: torch.Tensor, yaw: torch.Tensor, length: float, width: float) -> torch.Tensor:
+    """Corners of rectangles of one size at poses xy (..., 2), yaw (...): (..., 4, 2)."""
+    rows = torch.cat(
+        [xy, yaw.unsqueeze(-1), torch.full_like(yaw, length).unsqueeze(-1), torch.full_like(yaw, width).unsqueeze(-1)],
+        -1,
+    )
+    return corners(rows)
+
+
+def transform(points: torch.Tensor, xy: torch.Tensor, yaw: torch.Tensor) -> torch.Tensor:
+    """Body-frame points (P, 2) placed at poses xy (..., 2), yaw (...): (..., P, 2)."""
+    c, s = torch.cos(yaw).unsqueeze(-1), torch.sin(yaw).unsqueeze(-1)
+    x = c * points[:, 0] - s * points[:, 1] + xy[..., :1]
+    y = s * points[:, 0] + c * points[:, 1] + xy[..., 1:]
+    return torch.stack([x, y], -1)
