@@ -12,13 +12,15 @@ from omegaconf import DictConfig
 
 import mapush
 from mapush.config import check_run_values, load_run_config, new_run_dir, save_run_config, to_plain
-from mapush.envs.mid import EXCEPTIONS, MidPushEnv
-from mapush.envs.observations import local_dim
+from mapush.envs.high import HighPushEnv
+from mapush.envs.mid import MidPushEnv
 from mapush.errors import BadInput
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import repair_in_place
 from mapush.logging.metrics import next_free_path
 from mapush.logging.scene import SceneLayout
+from mapush.planning.planner import ObjectPlanner
+from mapush.rl.frozen import load_mid_policy
 from mapush.rl.runner import (
     MapushRunner,
     checkpoint_iteration,
@@ -26,10 +28,12 @@ from mapush.rl.runner import (
     export_policy,
     learn,
     load_checkpoint,
+    obs_width,
     seed_everything,
     train_cfg_for,
 )
 from mapush.rl.vecenv import AgentRowsVecEnv
+from mapush.sim.shapes import object_radius
 
 TRAIN_EPISODES = "train_episodes.mcap"
 
@@ -39,17 +43,41 @@ def exit_on_sigterm() -> None:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
-def build(cfg: dict, run_dir: Path | None, total_iterations: int) -> tuple[MidPushEnv, MapushRunner]:
+LEVELS = {"mid": MidPushEnv, "high": HighPushEnv}
+"""The env class of each trainable level."""
+
+
+def env_class(cfg: dict) -> type:
+    """The env class of a config's level; BadInput for a level that cannot be trained."""
+    name = cfg["level"]["name"]
+    if name not in LEVELS:
+        raise BadInput(f"level {name!r} cannot be trained yet; valid: {', '.join(LEVELS)}")
+    return LEVELS[name]
+
+
+def make_env(cfg: dict, evaluation: bool = False):
+    """The env of a config. The high level loads its frozen mid level and, for evaluation, an OMPL planner."""
+    if env_class(cfg) is MidPushEnv:
+        return MidPushEnv(cfg)
+    mid = load_mid_policy(cfg["mid"], cfg["task"])
+    planner = None
+    if evaluation and cfg["level"]["path"]["plan_at_eval"]:
+        radius = object_radius(cfg["task"]["object"])
+        planner = ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius)
+    return HighPushEnv(cfg, mid, planner=planner)
+
+
+def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bool = False):
     """The env and the runner of a config; `run_dir=None` builds them without any logging (evaluation)."""
     seed_everything(int(cfg["seed"]))
-    env = MidPushEnv(cfg)
+    env = make_env(cfg, evaluation)
     vec_env = AgentRowsVecEnv(env, device=cfg["device"])
     # rsl-rl prints the networks on construction: into train.log for a run, nowhere for an evaluation
     sink = open(run_dir / "train.log", "a") if run_dir else open(os.devnull, "w")
     with sink, contextlib.redirect_stdout(sink):
         runner = MapushRunner(
             vec_env,
-            train_cfg_for(cfg, env.num_agents, total_iterations),
+            train_cfg_for(cfg, env.policy_agents, total_iterations),
             log_dir=str(run_dir) if run_dir else None,
             device=cfg["device"],
         )
@@ -59,11 +87,13 @@ def build(cfg: dict, run_dir: Path | None, total_iterations: int) -> tuple[MidPu
 
 def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     """Train a fresh run; returns its run dir."""
-    if cfg.level.name != "mid":
-        raise BadInput(f"level {cfg.level.name!r} cannot be trained yet; valid: mid")
     check_run_values(cfg)
+    if cfg.level.name == "high" and cfg.mid:
+        cfg.mid = str(Path(cfg.mid).resolve())  # the run must find its mid level from anywhere
     plain = to_plain(cfg)
-    MidPushEnv.validate(plain)
+    env_class(plain).validate(plain)
+    if env_class(plain) is HighPushEnv:
+        load_mid_policy(plain["mid"], plain["task"])  # fails here, before a run dir exists
     run_dir = new_run_dir(cfg)
     save_run_config(run_dir, cfg, overrides, command)
     print(run_dir, flush=True)
@@ -96,7 +126,7 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     env, runner = build(cfg, run_dir, total)
     done = 0
     if checkpoint is not None:
-        done = load_checkpoint(runner, checkpoint, local_dim(env.num_agents), "the run's config") + 1
+        done = load_checkpoint(runner, checkpoint, obs_width(runner), "the run's config") + 1
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
@@ -111,9 +141,9 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     export_policy(runner, run_dir)
 
 
-def attach_episode_recorder(cfg: dict, env: MidPushEnv, path: Path, every_steps: int) -> EpisodeRecorder:
+def attach_episode_recorder(cfg: dict, env, path: Path, every_steps: int) -> EpisodeRecorder:
     """Record env 0's next whole episode after every `every_steps` env steps into `path` (training episodes)."""
-    recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), EXCEPTIONS)
+    recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), env.EXCEPTIONS)
     recorder.watch([0], env.dt, "training", from_start=False, every_steps=every_steps)
     env.recorders.append(recorder)
     return recorder

@@ -29,10 +29,14 @@ RECENT_EPISODES = 500
 class MidPushEnv:
     """E envs x A robots pushing one object each toward a subgoal 1.5-3 m away.
 
+    `EXCEPTIONS` names the exception kinds (`exception_kind` indexes it).
+
     Args:
         cfg: the composed config as a plain dict (task, level, lowlevel, reward, sim, seed).
         num_envs: overrides `cfg["num_envs"]` (eval and bench use their own counts).
     """
+
+    EXCEPTIONS = EXCEPTIONS
 
     def __init__(self, cfg: dict, num_envs: int | None = None):
         self.validate(cfg)
@@ -40,6 +44,7 @@ class MidPushEnv:
         task, level = cfg["task"], cfg["level"]
         self.num_envs = num_envs or cfg["num_envs"]
         self.num_agents = task["num_agents"]
+        self.policy_agents = self.num_agents  # one policy row per robot (decentralized, shared weights)
         self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
         self.sim = BatchSim(cfg["sim"], task, self.lowlevel, self.num_envs)
         self.rewards = RewardManager(cfg["reward"]["terms"])
@@ -95,6 +100,11 @@ class MidPushEnv:
         self.subgoal_distance = torch.linalg.vector_norm(self.object_xy - self.subgoal_xy, dim=-1)
         # (E, A, A) distances between robot centres; the diagonal is 0 (torch.cdist is ~100x slower at this size)
         self.robot_distance = torch.linalg.vector_norm(self.robot_xy.unsqueeze(2) - self.robot_xy.unsqueeze(1), dim=-1)
+
+    @property
+    def episode_time_s(self) -> torch.Tensor:
+        """Simulated time of each env's episode, s."""
+        return self.episode_step.float() * self.dt
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): poses (E, ...) and the subgoal (E, 2)."""

@@ -7,6 +7,8 @@ import math
 import torch
 
 from mapush.errors import BadInput
+from mapush.planning.geometry import parked
+from mapush.sim.shapes import object_radius
 
 MAX_REJECTION_ROUNDS = 32
 """Rounds of resampling for envs whose robots spawned too close; the rest get evenly spread angles."""
@@ -90,3 +92,102 @@ def sample_mid_layout(gen: torch.Generator, n: int, task_cfg: dict, min_distance
         "robot_yaw": uniform(gen, 0.0, 2 * math.pi, n, task_cfg["num_agents"]),
         "friction": uniform(gen, *obj["friction"], n),
     }
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Long-horizon (high-level) layouts
+
+
+def start_clearance(cfg: dict) -> float:
+    """Radius around the object's start that obstacles keep clear of: object, robot ring, a robot, margin."""
+    task, level = cfg["task"], cfg["level"]
+    robot_reach = max(cfg["lowlevel"]["size"][:2]) / 2
+    return (
+        object_radius(task["object"]) + task["spawn"]["agent_radius"][1] + robot_reach + level["obstacles"]["clearance"]
+    )
+
+
+def goal_clearance(cfg: dict) -> float:
+    """Radius around the final target that obstacles keep clear of: the object resting on it, with margin."""
+    level = cfg["level"]
+    return level["success_distance"] + object_radius(cfg["task"]["object"]) + level["obstacles"]["clearance"]
+
+
+def sample_high_layout(gen: torch.Generator, n: int, cfg: dict) -> dict[str, torch.Tensor]:
+    """Starts and targets of `n` long-horizon episodes: object in the start area, target in the goal area.
+
+    Returns:
+        `object_xy` (n, 2), `object_yaw` (n,), `target_xy` (n, 2), `robot_xy` (n, A, 2), `robot_yaw` (n, A),
+        `friction` (n,), `subgoal_xy` (n, 2) (the object's own position: no push until the first decision).
+    """
+    level, task = cfg["level"], cfg["task"]
+    start = _in_area(gen, n, level["start_area"])
+    target = _in_area(gen, n, level["goal_area"])
+    ring = sample_ring(gen, n, task["num_agents"], task["spawn"]["agent_radius"], level["min_spawn_distance"])
+    return {
+        "object_xy": start,
+        "object_yaw": uniform(gen, 0.0, 2 * math.pi, n),
+        "target_xy": target,
+        "subgoal_xy": start.clone(),
+        "robot_xy": start.unsqueeze(1) + ring,
+        "robot_yaw": uniform(gen, 0.0, 2 * math.pi, n, task["num_agents"]),
+        "friction": uniform(gen, *task["object"]["friction"], n),
+    }
+
+
+def _in_area(gen: torch.Generator, n: int, area: dict) -> torch.Tensor:
+    return torch.stack([uniform(gen, *area["x"], n), uniform(gen, *area["y"], n)], -1)
+
+
+def sample_obstacles(
+    gen: torch.Generator, cfg: dict, start: torch.Tensor, target: torch.Tensor, path: torch.Tensor | None
+) -> torch.Tensor:
+    """Obstacle blocks of `n` episodes, (n, K, 5) rows of (x, y, yaw, size x, size y).
+
+    With a `path` (training) the centres lie in a strip of `train_strip_width` around it (paper App. A); without
+    one (evaluation) they are uniform between the start and goal areas across the room. No obstacle overlaps the
+    start layout, the target or another obstacle; one that finds no room in `MAX_REJECTION_ROUNDS` draws is parked
+    outside the arena (absent).
+    """
+    level = cfg["level"]
+    spec = level["obstacles"]
+    n, count = start.shape[0], spec["count"]
+    size = torch.tensor(spec["size"], dtype=torch.float32)
+    half_diag = float(torch.linalg.vector_norm(size)) / 2
+    half_room = cfg["sim"]["arena_size"] / 2 - half_diag - 0.1
+    keep_start, keep_goal = start_clearance(cfg) + half_diag, goal_clearance(cfg) + half_diag
+    apart = 2 * half_diag + spec["gap"]
+    rows = parked(n, count, 1.0)
+    rows[..., 3:] = size
+    for k in range(count):
+        todo = torch.arange(n)
+        for _ in range(MAX_REJECTION_ROUNDS):
+            m = len(todo)
+            if path is not None:
+                centre = _in_strip(gen, path[todo], spec["train_strip_width"])
+            else:
+                x_lo, x_hi = level["start_area"]["x"][1], level["goal_area"]["x"][0]
+                centre = torch.stack([uniform(gen, x_lo, x_hi, m), uniform(gen, -half_room, half_room, m)], -1)
+            ok = (centre.abs() <= half_room).all(-1)
+            ok &= torch.linalg.vector_norm(centre - start[todo], dim=-1) >= keep_start
+            ok &= torch.linalg.vector_norm(centre - target[todo], dim=-1) >= keep_goal
+            if k:
+                ok &= (torch.linalg.vector_norm(rows[todo, :k, :2] - centre.unsqueeze(1), dim=-1) >= apart).all(-1)
+            placed = todo[ok]
+            rows[placed, k, :2] = centre[ok]
+            rows[placed, k, 2] = uniform(gen, 0.0, math.pi / 2, len(placed))
+            todo = todo[~ok]
+            if len(todo) == 0:
+                break
+    return rows
+
+
+def _in_strip(gen: torch.Generator, path: torch.Tensor, width: float) -> torch.Tensor:
+    """A point within width / 2 of a random interior point of each path (m, P, 2), across the path's direction."""
+    m, points = path.shape[0], path.shape[1]
+    idx = torch.randint(1, points - 1, (m,), generator=gen)
+    rows = torch.arange(m)
+    tangent = path[rows, idx + 1] - path[rows, idx - 1]
+    tangent = tangent / torch.linalg.vector_norm(tangent, dim=-1, keepdim=True).clamp(min=1e-9)
+    normal = torch.stack([-tangent[:, 1], tangent[:, 0]], -1)
+    return path[rows, idx] + normal * uniform(gen, -width / 2, width / 2, m).unsqueeze(-1)

@@ -15,13 +15,11 @@ import numpy as np
 import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
-from mapush.envs.mid import EXCEPTIONS
-from mapush.envs.observations import local_dim
 from mapush.errors import BadInput
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.scene import SceneLayout
 from mapush.rewards.manager import RewardManager
-from mapush.rl.runner import checkpoints, load_checkpoint
+from mapush.rl.runner import checkpoints, load_checkpoint, obs_width
 
 EPISODES = "episodes.mcap"
 
@@ -48,7 +46,7 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
     from mapush.train import build  # late: train imports this module's neighbours
 
     cfg = {**cfg, "seed": seed, "num_envs": episodes}
-    env, runner = build(cfg, None, 0)
+    env, runner = build(cfg, None, 0, evaluation=True)
     for recorder in recorders:
         if isinstance(recorder, EpisodeRecorder):
             count = min(int(cfg["log"]["eval_episodes"]), episodes)
@@ -56,14 +54,13 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
         else:
             recorder.watch(env.dt, f"seed {seed}")
         env.recorders.append(recorder)
-    load_checkpoint(
-        runner, checkpoint, local_dim(env.num_agents), f"task {cfg['task']['name']} with {env.num_agents} agents"
-    )
+    load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
     policy = runner.get_inference_policy()
     vec = runner.env
     finished = torch.zeros(episodes, dtype=torch.bool)
     success = torch.zeros(episodes, dtype=torch.bool)
     exception = torch.zeros(episodes, dtype=torch.bool)
+    planner_failure = torch.zeros(episodes, dtype=torch.bool)
     time_s = torch.zeros(episodes)
     obs = vec.get_observations()
     with torch.inference_mode():
@@ -73,6 +70,8 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
             first = end["done"] & ~finished
             success |= end["success"] & first
             exception |= end["exception"] & first
+            if "planner_failure" in end:
+                planner_failure |= end["planner_failure"] & first
             time_s[first] = end["time_s"][first]
             finished |= end["done"]
     timeout_s = env.max_episode_length * env.dt
@@ -82,6 +81,7 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
         "episodes": episodes,
         "success_rate": success.float().mean().item(),
         "exception_rate": exception.float().mean().item(),
+        "planner_failure_rate": planner_failure.float().mean().item(),
         "completion_time_s": completion_s.mean().item(),
         "completion_time": (completion_s / timeout_s).mean().item(),
         "timeout_s": timeout_s,
@@ -132,12 +132,15 @@ def evaluate(
 
 def _eval_recorders(cfg: dict, run_dir: Path, live: bool) -> list:
     """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
+    from mapush.train import env_class
+
     layout, terms = SceneLayout.from_config(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
+    exceptions = env_class(cfg).EXCEPTIONS
     recorders: list = []
     if int(cfg["log"]["eval_episodes"]) > 0:
-        recorders.append(EpisodeRecorder(run_dir / EPISODES, layout, terms, EXCEPTIONS))
+        recorders.append(EpisodeRecorder(run_dir / EPISODES, layout, terms, exceptions))
     if live:
-        view = LiveView(layout, terms, EXCEPTIONS, int(cfg["log"]["live_port"]))
+        view = LiveView(layout, terms, exceptions, int(cfg["log"]["live_port"]))
         print(f"live view: open Foxglove on ws://127.0.0.1:{view.port}", file=sys.stderr, flush=True)
         recorders.append(view)
     return recorders

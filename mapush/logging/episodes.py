@@ -22,14 +22,14 @@ import os
 import time
 from pathlib import Path
 
-import foxglove
 import numpy as np
 import torch
-from foxglove import Channel, Context, Schema
 from foxglove.channels import FrameTransformsChannel, LogChannel, SceneUpdateChannel
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 from foxglove.messages import Log, LogLevel
 
+import foxglove
+from foxglove import Channel, Context, Schema
 from mapush.logging.scene import SceneLayout, frame_transforms, scene_update, timestamp
 
 CHUNK_BYTES = 256 * 1024  # small chunks: what a kill leaves is recoverable up to the last flush (libraries.md 3.5)
@@ -128,7 +128,7 @@ def step_rows(env, env_ids: torch.Tensor, commands, reward, parts: dict) -> dict
     rows["terms"] = torch.stack([parts[name][env_ids] for name in env.rewards.terms], dim=1).numpy()
     rows["success"] = env.success[env_ids].numpy()
     rows["exception_kind"] = env.exception_kind[env_ids].numpy()
-    rows["time_s"] = (env.episode_step[env_ids].float() * env.dt).numpy()
+    rows["time_s"] = env.episode_time_s[env_ids].numpy()
     return rows
 
 

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import torch
 
+from mapush.planning.paths import distance_to_path
+
 
 def _shared(env, value: torch.Tensor) -> torch.Tensor:
-    """Broadcast a per-env value (E,) to every agent: (E, A)."""
-    return value.float().unsqueeze(1).expand(-1, env.num_agents)
+    """Broadcast a per-env value (E,) to every policy row of the env: (E, A) mid level, (E, 1) high level."""
+    return value.float().unsqueeze(1).expand(-1, env.policy_agents)
 
 
 def subgoal_reached(env) -> torch.Tensor:
@@ -94,3 +96,27 @@ def hull_inward_normal(
     n = torch.where(use_gap.unsqueeze(-1), gap_k / dist_k.clamp_min(1e-6).unsqueeze(-1), edge_normal)
     # back to the world frame: R(yaw) n
     return torch.stack([c * n[..., 0] - s * n[..., 1], s * n[..., 0] + c * n[..., 1]], -1)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# High level (paper App. B, "high reward"): one team reward per decision, (E, 1).
+
+
+def target_reached(env) -> torch.Tensor:
+    """1 on the decision in which the object comes within the success distance of the final target."""
+    return _shared(env, env.success)
+
+
+def target_approach(env) -> torch.Tensor:
+    """1 / (1 + d), d the object-target distance in m."""
+    return _shared(env, 1.0 / (1.0 + env.target_distance))
+
+
+def path_following(env) -> torch.Tensor:
+    """1 / (1 + d), d from the chosen subgoal to the nearest sampled point of the reference path (paper)."""
+    return _shared(env, 1.0 / (1.0 + distance_to_path(env.path, env.subgoal_xy)))
+
+
+def obstacle_proximity(env) -> torch.Tensor:
+    """1 / (1 + d), d from the object's footprint to the nearest obstacle's, in m (0 when touching)."""
+    return _shared(env, 1.0 / (1.0 + env.object_obstacle_gap.amin(-1).clamp(min=0.0)))

@@ -75,6 +75,11 @@ def actor_input_dim(checkpoint: dict) -> int:
     return int(weights[0].shape[1])
 
 
+def obs_width(runner: OnPolicyRunner) -> int:
+    """Width of the actor's observation in the runner's env."""
+    return int(runner.env.get_observations()["policy"].shape[-1])
+
+
 def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str) -> int:
     """Load `path` into `runner` after checking it fits; returns the checkpoint's iteration.
 
@@ -88,10 +93,11 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
     except Exception as err:  # a truncated or foreign file
         raise BadInput(f"checkpoint {str(path)!r} is not an rsl-rl checkpoint ({type(err).__name__})") from None
     if trained_dim != obs_dim:
+        level = runner.env.cfg["level"]["name"]
+        hint = f" (task.num_agents={agents_for_local_dim(trained_dim)})" if level == "mid" else ""
         raise BadInput(
             f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
-            f"{obs_dim}-d; valid: the task and agent count it was trained with "
-            f"(task.num_agents={agents_for_local_dim(trained_dim)})"
+            f"{obs_dim}-d; valid: the task and agent count it was trained with{hint}"
         )
     runner.load(str(path), map_location=runner.device)
     return int(data["iter"])

@@ -36,9 +36,9 @@ class AgentRowsVecEnv(VecEnv):
 
     def __init__(self, env, device: str = "cpu"):
         self.env = env
-        self.num_agents = env.num_agents
-        self.num_envs = env.num_envs * env.num_agents
-        self.num_actions = len(env.action_scale)  # (vx, vy, yaw rate) for the mid level
+        self.num_agents = env.policy_agents  # policy rows per env: every robot (mid), one per team (high)
+        self.num_envs = env.num_envs * self.num_agents
+        self.num_actions = len(env.action_scale)  # (vx, vy, yaw rate) for the mid level, 2 for the high level
         self.max_episode_length = env.max_episode_length
         self.device = device
         self.cfg = env.cfg

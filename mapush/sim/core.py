@@ -13,7 +13,7 @@ import numpy as np
 import torch
 from mujoco import batch as mjb
 
-from mapush.sim.scene import OBJECT_BODY, OBJECT_JOINT, SUBGOAL_BODY, build_scene, robot_prefixes
+from mapush.sim.scene import OBJECT_BODY, OBJECT_JOINT, OBSTACLE_BODY, SUBGOAL_BODY, build_scene, robot_prefixes
 
 
 class BatchSim:
@@ -26,8 +26,10 @@ class BatchSim:
         num_envs: number of parallel envs E.
     """
 
-    def __init__(self, sim_cfg: dict, task_cfg: dict, lowlevel, num_envs: int):
-        self.spec = build_scene(sim_cfg, task_cfg, lowlevel)
+    def __init__(
+        self, sim_cfg: dict, task_cfg: dict, lowlevel, num_envs: int, obstacles: int = 0, obstacle_size=(1.0, 1.0)
+    ):
+        self.spec = build_scene(sim_cfg, task_cfg, lowlevel, obstacles, obstacle_size)
         self.model = self.spec.compile()
         self.num_envs = num_envs
         self.num_agents = task_cfg["num_agents"]
@@ -42,6 +44,10 @@ class BatchSim:
         self.object_qpos = int(self.model.jnt_qposadr[joint.id])
         self.object_qvel = int(self.model.jnt_dofadr[joint.id])
         self.subgoal_mocap = int(self.model.body(SUBGOAL_BODY).mocapid[0])
+        self.obstacle_mocap = np.array(
+            [int(self.model.body(OBSTACLE_BODY.format(k)).mocapid[0]) for k in range(obstacles)], dtype=np.int64
+        )
+        self.mocap_quat = self.batch.bind("mocap_quat")
         self.object_geoms = np.flatnonzero(self.model.geom_bodyid == self.model.body(OBJECT_BODY).id)
         self.object_rest_z = float(self.model.body(OBJECT_BODY).pos[2])
         self.geom_friction = self.batch.expand("geom_friction")
@@ -116,6 +122,17 @@ class BatchSim:
         self.mocap_pos[ids, self.subgoal_mocap, :2] = lay["subgoal_xy"]
         self.geom_friction[np.ix_(ids, self.object_geoms, [0])] = lay["friction"][:, None, None]
         self.batch.forward(ids)
+
+    def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
+        """Place the obstacle blocks of envs `ids`: rows (n, K, 5) of (x, y, yaw, size x, size y); sizes are fixed."""
+        rows = obstacles.numpy().astype(np.float64)
+        idx = np.ix_(ids, self.obstacle_mocap)
+        pos = np.zeros((len(ids), len(self.obstacle_mocap), 3))
+        pos[..., :2], pos[..., 2] = rows[..., :2], 0.5
+        quat = np.zeros((len(ids), len(self.obstacle_mocap), 4))
+        quat[..., 0], quat[..., 3] = np.cos(rows[..., 2] / 2), np.sin(rows[..., 2] / 2)
+        self.mocap_pos[idx] = pos
+        self.mocap_quat[idx] = quat
 
     def set_subgoal(self, ids: np.ndarray, xy: torch.Tensor) -> None:
         """Move the (visual) subgoal marker of envs `ids` to `xy` (n, 2)."""

@@ -7,6 +7,7 @@ import mujoco
 OBJECT_BODY = "object"
 OBJECT_JOINT = "object_root"
 SUBGOAL_BODY = "subgoal"
+OBSTACLE_BODY = "obstacle{}"
 ROBOT_PREFIX = "robot{}/"
 
 # Contact bits: the floor is bit 1, robots bit 2; the object and the walls touch both.
@@ -18,13 +19,15 @@ def robot_prefixes(num_agents: int) -> list[str]:
     return [ROBOT_PREFIX.format(i) for i in range(num_agents)]
 
 
-def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel) -> mujoco.MjSpec:
-    """The mid-level pushing scene of one env, as an MjSpec (compile it, or edit it first).
+def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel, obstacles: int = 0, obstacle_size=(1.0, 1.0)) -> mujoco.MjSpec:
+    """The pushing scene of one env, as an MjSpec (compile it, or edit it first).
 
     Args:
         sim_cfg: the `sim` config block (timestep, arena).
         task_cfg: the task config (object parts, agent count).
         lowlevel: a low-level backend; its `robot_spec()` is attached once per agent.
+        obstacles: number of obstacle blocks (the high level), mocap bodies placed per env at reset.
+        obstacle_size: their footprint (x, y) in m; they are 1 m tall.
     """
     spec = mujoco.MjSpec()
     spec.modelname = f"mapush_{task_cfg['name']}"
@@ -53,6 +56,16 @@ def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel) -> mujoco.MjSpec:
         conaffinity=0,
         rgba=[1, 0.1, 0.1, 0.4],
     )
+    for k in range(obstacles):
+        block = world.add_body(name=OBSTACLE_BODY.format(k), mocap=True, pos=[1000.0 + 3 * k, 1000.0, 0.5])
+        block.add_geom(
+            name=f"obstacle{k}_box",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[obstacle_size[0] / 2, obstacle_size[1] / 2, 0.5],
+            contype=OBJECT_BITS,
+            conaffinity=OBJECT_BITS,
+            rgba=[0.35, 0.35, 0.4, 1],
+        )
     for prefix in robot_prefixes(task_cfg["num_agents"]):
         spec.attach(lowlevel.robot_spec(), frame=world.add_frame(), prefix=prefix)
     return spec

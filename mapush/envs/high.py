@@ -1,0 +1,402 @@
+"""The high-level env: a centralized policy picks the object's next subgoal; the frozen mid level pushes it there.
+
+One decision every `level.decision_steps` mid-level steps (0.5 s by default; the original decided every 20 ms).
+Each mid-level step is the mid env's step: the mid policy's commands -> physics -> state, with the subgoal the
+high level chose. Success is the object within `success_distance` of the final target, 10+ m away through
+obstacles; exceptions end the episode (robots colliding, object or robot tilted, a robot or the object hitting an
+obstacle, a diverged simulation, and at evaluation a map the planner found no path through).
+
+Frame of the observation (`high_observation`): the *target frame*, origin at the object's centre and x pointing
+from the object to the final target. Action: 2 numbers in [-1, 1]; the subgoal lies at distance
+d = d_min + (a1 + 1) / 2 (d_max - d_min) (1.5-3 m: the mid level's trained range) from the object, turned by
+a0 * `subgoal_max_turn` from the *path direction* (object -> the path point `path_direction_m` ahead of the path
+point nearest the object). a = (0, 0) follows the reference path at 2.25 m.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from mapush.envs import observations as obs_terms
+from mapush.envs.resets import check_agent_count, sample_high_layout, sample_obstacles
+from mapush.errors import BadInput
+from mapush.lowlevel import BACKENDS
+from mapush.planning.geometry import corners, point_distance, polygon_gap, rectangles, transform
+from mapush.planning.paths import nearest_index, random_curved_paths
+from mapush.rewards.manager import RewardManager
+from mapush.sim.core import BatchSim
+from mapush.sim.shapes import object_hull, object_radius
+
+RECENT_EPISODES = 500
+
+
+class HighPushEnv:
+    """E envs, each a team of A robots under one high-level policy, pushing an object 10+ m through obstacles.
+
+    Args:
+        cfg: the composed config (plain dict) with `level=high`.
+        mid: the frozen mid level (`mapush.rl.frozen.load_mid_policy`).
+        num_envs: overrides `cfg["num_envs"]`.
+        planner: an `ObjectPlanner` to plan every episode's reference path (evaluation); None draws the paper's
+            random curved paths (training).
+    """
+
+    EXCEPTIONS = (
+        "diverged",
+        "robot_collision",
+        "object_tilt",
+        "robot_tilt",
+        "robot_hit_obstacle",
+        "object_hit_obstacle",
+        "planner_failure",
+    )
+
+    def __init__(self, cfg: dict, mid, num_envs: int | None = None, planner=None):
+        self.validate(cfg)
+        self.cfg = cfg
+        task, level = cfg["task"], cfg["level"]
+        self.num_envs = num_envs or cfg["num_envs"]
+        self.num_agents = task["num_agents"]
+        self.policy_agents = 1  # one centralized decision per team
+        self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
+        self.num_obstacles = level["obstacles"]["count"]
+        self.sim = BatchSim(
+            cfg["sim"], task, self.lowlevel, self.num_envs, self.num_obstacles, level["obstacles"]["size"]
+        )
+        self.mid = mid
+        self.planner = planner
+        self.rewards = RewardManager(cfg["reward"]["terms"])
+        self.sim_dt = self.sim.dt
+        self.decision_steps = int(level["decision_steps"])
+        self.dt = self.sim_dt * self.decision_steps
+        self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
+        self.action_scale = torch.ones(2)  # 2 actions in [-1, 1] (vecenv reads the width from here)
+        self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
+        self.object_radius = object_radius(task["object"])
+        self.robot_size = tuple(cfg["lowlevel"]["size"][:2])
+        A, E = self.num_agents, self.num_envs
+        self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A
+        self.generator = torch.Generator().manual_seed(int(cfg["seed"]))
+        self.episode_step = torch.zeros(E, dtype=torch.long)  # decisions
+        self.inner_step = torch.zeros(E, dtype=torch.long)  # mid-level steps
+        self.subgoal_xy = torch.zeros(E, 2)
+        self.target_xy = torch.zeros(E, 2)
+        self.path = torch.zeros(E, level["path"]["points"], 2)
+        self.obstacles = torch.zeros(E, self.num_obstacles, 5)
+        self.plan_failed = torch.zeros(E, dtype=torch.bool)
+        self.success = torch.zeros(E, dtype=torch.bool)
+        self.exception = torch.zeros(E, dtype=torch.bool)
+        self.exception_kind = torch.full((E,), -1)
+        self.finish_time_s = torch.zeros(E)
+        self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
+        self.last_reward = torch.zeros(E, 1)
+        self.last_parts = {name: torch.zeros(E, 1) for name in self.rewards.terms}
+        self.recent_success = torch.full((RECENT_EPISODES,), float("nan"))
+        self._recent_next = 0
+        self.recorders = []
+        self.reset(np.arange(E))
+
+    @staticmethod
+    def validate(cfg: dict) -> None:
+        """Check a config before anything is built: backend, agent count, reward terms, the mid level's settings."""
+        if cfg["lowlevel"]["name"] not in BACKENDS:
+            raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
+        check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
+        RewardManager(cfg["reward"]["terms"])
+
+    @property
+    def episode_time_s(self) -> torch.Tensor:
+        """Simulated time of each env's episode, s (per mid-level step)."""
+        return self.inner_step.float() * self.sim_dt
+
+    # ----------------------------------------------------------------------------------------------------------
+    def reset(self, ids: np.ndarray) -> None:
+        """Start new episodes in envs `ids`: layout, reference path, obstacles."""
+        if len(ids) == 0:
+            return
+        level = self.cfg["level"]
+        t = torch.from_numpy(ids)
+        layout = sample_high_layout(self.generator, len(ids), self.cfg)
+        start, target = layout["object_xy"], layout["target_xy"]
+        points = level["path"]["points"]
+        if self.planner is None:
+            path = random_curved_paths(self.generator, start, target, level["path"]["train_noise"], points)
+            obstacles = sample_obstacles(self.generator, self.cfg, start, target, path)
+            failed = torch.zeros(len(ids), dtype=torch.bool)
+        else:
+            obstacles = sample_obstacles(self.generator, self.cfg, start, target, None)
+            path, failed = self._plan(start, target, obstacles, points)
+        self.sim.reset(ids, layout)
+        self.sim.set_obstacles(ids, obstacles)
+        self.target_xy[t], self.path[t], self.obstacles[t] = target, path, obstacles
+        self.subgoal_xy[t] = layout["subgoal_xy"]
+        self.plan_failed[t] = failed
+        self.episode_step[t] = 0
+        self.inner_step[t] = 0
+        self.success[t] = False
+        self.exception[t] = False
+        self.exception_kind[t] = -1
+        for sums in self.episode_sums.values():
+            sums[t] = 0.0
+        self._read_state()
+
+    def _plan(self, start, target, obstacles, points) -> tuple[torch.Tensor, torch.Tensor]:
+        """OMPL paths for each env (a straight line where planning fails, which ends that episode at once)."""
+        paths, failed = [], []
+        for s, g, obs in zip(start.numpy(), target.numpy(), obstacles.numpy(), strict=True):
+            result = self.planner.plan(s, g, obs, points)
+            if result.solved and result.valid:
+                paths.append(torch.from_numpy(result.path))
+                failed.append(False)
+            else:
+                paths.append(torch.from_numpy(np.linspace(s, g, points)).float())
+                failed.append(True)
+        return torch.stack(paths), torch.tensor(failed)
+
+    def _read_state(self) -> None:
+        for name, value in self.sim.read().items():
+            setattr(self, name, value)
+        self.target_distance = torch.linalg.vector_norm(self.object_xy - self.target_xy, dim=-1)
+        self.robot_distance = torch.linalg.vector_norm(self.robot_xy.unsqueeze(2) - self.robot_xy.unsqueeze(1), dim=-1)
+        if self.num_obstacles:
+            obstacles = corners(self.obstacles)  # (E, K, 4, 2)
+            hull = transform(self.hull, self.object_xy, self.object_yaw)  # (E, H, 2)
+            self.object_obstacle_gap = _near_gaps(
+                self.object_xy.unsqueeze(1), self.object_radius, hull.unsqueeze(1), self.obstacles, obstacles
+            )[:, 0]  # (E, K)
+            boxes = rectangles(self.robot_xy, self.robot_yaw, *self.robot_size)  # (E, A, 4, 2)
+            robot_radius = math.hypot(*self.robot_size) / 2
+            self.robot_obstacle_gap = _near_gaps(self.robot_xy, robot_radius, boxes, self.obstacles, obstacles)
+        else:
+            self.object_obstacle_gap = torch.full((self.num_envs, 1), float("inf"))
+            self.robot_obstacle_gap = torch.full((self.num_envs, self.num_agents, 1), float("inf"))
+
+    # ----------------------------------------------------------------------------------------------------------
+    def path_direction(self) -> torch.Tensor:
+        """Unit vector from the object toward the path point `path_direction_m` past its nearest one: (E, 2)."""
+        ahead = self.path_points_ahead(torch.tensor([self.cfg["level"]["path_direction_m"]]))[:, 0]
+        d = ahead - self.object_xy
+        norm = torch.linalg.vector_norm(d, dim=-1, keepdim=True)
+        fallback = self.target_xy - self.object_xy
+        d = torch.where(norm > 1e-3, d, fallback)
+        return d / torch.linalg.vector_norm(d, dim=-1, keepdim=True).clamp(min=1e-6)
+
+    def path_points_ahead(self, distances: torch.Tensor) -> torch.Tensor:
+        """Path points at the given arc lengths (L,) past the point nearest the object: (E, L, 2)."""
+        points = self.path.shape[1]
+        spacing = _spacing(self.path)
+        idx = nearest_index(self.path, self.object_xy).unsqueeze(1)
+        offset = torch.round(distances.unsqueeze(0) / spacing.unsqueeze(1).clamp(min=1e-3)).long()
+        ahead = (idx + offset).clamp(max=points - 1)
+        return self.path.gather(1, ahead.unsqueeze(-1).expand(-1, -1, 2))
+
+    def subgoal_from_action(self, actions: torch.Tensor) -> torch.Tensor:
+        """Subgoals (E, 2) from actions (E, 2) in [-1, 1] (parametrization in the module docstring)."""
+        level = self.cfg["level"]
+        a = actions.clamp(-1.0, 1.0)
+        d_min, d_max = level["subgoal_distance"]
+        distance = d_min + (a[:, 1] + 1) / 2 * (d_max - d_min)
+        base = self.path_direction()
+        turn = a[:, 0] * level["subgoal_max_turn"]
+        c, s = torch.cos(turn), torch.sin(turn)
+        direction = torch.stack([c * base[:, 0] - s * base[:, 1], s * base[:, 0] + c * base[:, 1]], -1)
+        return self.object_xy + direction * distance.unsqueeze(-1)
+
+    def observations(self) -> dict[str, torch.Tensor]:
+        """`policy` and `critic`: (E, 1, d), the same centralized view (documented in `high_observation`)."""
+        obs = torch.nan_to_num(high_observation(self), 0.0, 0.0, 0.0).unsqueeze(1)
+        return {"policy": obs, "critic": obs}
+
+    # ----------------------------------------------------------------------------------------------------------
+    def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
+        """One decision: set the subgoals, run `decision_steps` mid-level steps, then score and reset.
+
+        Args:
+            actions: (E, 1, 2) raw policy outputs.
+
+        Returns:
+            obs, rewards (E, 1), terminated (E,), truncated (E,), info (`log`, `episode_end`) as `MidPushEnv.step`.
+        """
+        level, task = self.cfg["level"], self.cfg["task"]
+        self.subgoal_xy = self.subgoal_from_action(actions.reshape(self.num_envs, 2))
+        self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
+        finished = self.success | self.exception  # latched within the decision
+        diverged_any = torch.zeros(self.num_envs, dtype=torch.bool)
+        for k in range(self.decision_steps):
+            commands = self.mid.commands(obs_terms.local_observation(self))
+            failed = self.sim.step(commands)
+            self._read_state()
+            self.inner_step += (~finished).long()
+            diverged = torch.zeros(self.num_envs, dtype=torch.bool)
+            diverged[torch.from_numpy(failed)] = True
+            diverged |= ~torch.isfinite(self.object_xy).all(-1) | ~torch.isfinite(self.robot_xy).flatten(1).all(-1)
+            diverged_any |= diverged
+            kinds = self._exceptions(diverged, task, level)  # (kinds, E)
+            new_exception = kinds.any(0) & ~finished
+            new_success = (self.target_distance < level["success_distance"]) & ~finished & ~new_exception
+            self.exception_kind = torch.where(new_exception, kinds.int().argmax(0), self.exception_kind)
+            self.exception |= new_exception
+            self.success |= new_success
+            finished = finished | new_exception | new_success
+            if self.recorders:
+                last = k == self.decision_steps - 1
+                done_now = self._done_after_decision(finished) if last else torch.zeros_like(finished)
+                for recorder in self.recorders:
+                    recorder.capture(self, commands, self.last_reward, self.last_parts, done_now)
+        self.episode_step += 1
+        terminated = self.success | self.exception
+        truncated = (self.episode_step >= self.max_episode_length) & ~terminated
+        reward, parts = self.rewards.compute(self)
+        reward = torch.nan_to_num(reward, 0.0, 0.0, 0.0)
+        for name, value in parts.items():
+            self.episode_sums[name] += torch.nan_to_num(value, 0.0, 0.0, 0.0)
+        self.last_reward, self.last_parts = reward, parts
+        done = terminated | truncated
+        info = self._episode_info(done, diverged_any)
+        self.reset(done.nonzero().flatten().numpy())
+        return self.observations(), reward, terminated, truncated, info
+
+    def _done_after_decision(self, finished: torch.Tensor) -> torch.Tensor:
+        return finished | (self.episode_step + 1 >= self.max_episode_length)
+
+    def _exceptions(self, diverged: torch.Tensor, task: dict, level: dict) -> torch.Tensor:
+        """(len(EXCEPTIONS), E) flags in the order of EXCEPTIONS."""
+        pair = self.robot_distance + torch.eye(self.num_agents) * 1e9
+        tolerance = level["contact_tolerance"]
+        return torch.stack(
+            [
+                diverged,
+                (pair < task["collision_distance"]).flatten(1).any(-1),
+                self.object_tilt > level["object_max_tilt"],
+                (self.robot_tilt > level["robot_max_tilt"]).any(-1),
+                (self.robot_obstacle_gap < tolerance).flatten(1).any(-1),
+                (self.object_obstacle_gap < tolerance).any(-1),
+                self.plan_failed.clone(),
+            ]
+        )
+
+    def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
+        end = {
+            "done": done.clone(),
+            "success": self.success & done,
+            "exception": self.exception & done,
+            "diverged": diverged & done,
+            "exception_kind": torch.where(done, self.exception_kind, -1),
+            "planner_failure": self.plan_failed & done,
+            "time_s": self.episode_time_s,
+        }
+        if not done.any():
+            return {"episode_end": end, "log": {"Metrics/recent_success_rate": self.recent_success.nanmean()}}
+        outcomes = self.success[done].float()[-RECENT_EPISODES:]
+        slots = (self._recent_next + torch.arange(len(outcomes))) % RECENT_EPISODES
+        self.recent_success[slots] = outcomes
+        self._recent_next = int(slots[-1] + 1) % RECENT_EPISODES
+        log = {f"Reward/{name}": sums[done].mean() for name, sums in self.episode_sums.items()}
+        log["Metrics/success_rate"] = self.success[done].float().mean()
+        log["Metrics/exception_rate"] = self.exception[done].float().mean()
+        log["Metrics/episode_time_s"] = end["time_s"][done].mean()
+        log["Metrics/recent_success_rate"] = self.recent_success.nanmean()
+        return {"episode_end": end, "log": log}
+
+    def scene_frame(self) -> dict[str, torch.Tensor]:
+        """What a viewer draws of every env: poses, subgoal, target, obstacles (corners) and the reference path."""
+        return {
+            "object_xy": self.object_xy,
+            "object_z": self.object_z,
+            "object_yaw": self.object_yaw,
+            "robot_xy": self.robot_xy,
+            "robot_yaw": self.robot_yaw,
+            "subgoal_xy": self.subgoal_xy,
+            "target_xy": self.target_xy,
+            "obstacles": corners(self.obstacles),
+            "path": self.path,
+        }
+
+
+NEAR_M = 0.5
+"""Pairs whose bounding discs are further apart than this skip the exact polygon test."""
+
+
+def _near_gaps(
+    centres: torch.Tensor, radius: float, shapes: torch.Tensor, obstacles: torch.Tensor, obstacle_corners: torch.Tensor
+) -> torch.Tensor:
+    """Gaps (E, N, K) between N convex shapes per env and each obstacle: exact (separating axes) for pairs whose
+    bounding discs come within `NEAR_M`, the bounding-disc gap (a lower bound, > NEAR_M) for the rest.
+
+    Args:
+        centres: (E, N, 2) centres of the shapes' bounding discs of `radius`; shapes: (E, N, V, 2) vertices.
+        obstacles: (E, K, 5) rows; obstacle_corners: (E, K, 4, 2).
+    """
+    obstacle_radius = torch.linalg.vector_norm(obstacles[..., 3:], dim=-1) / 2  # (E, K)
+    centre_gap = torch.linalg.vector_norm(centres.unsqueeze(2) - obstacles[:, None, :, :2], dim=-1)
+    gaps = centre_gap - radius - obstacle_radius.unsqueeze(1)  # (E, N, K)
+    near = (gaps < NEAR_M).nonzero(as_tuple=True)
+    if len(near[0]):
+        e, n, k = near
+        gaps[near] = polygon_gap(shapes[e, n], obstacle_corners[e, k])
+    return gaps
+
+
+def _spacing(path: torch.Tensor) -> torch.Tensor:
+    """Distance between consecutive points of evenly resampled paths (E, P, 2): (E,)."""
+    return torch.linalg.vector_norm(path[:, 1] - path[:, 0], dim=-1)
+
+
+def high_observation(env: HighPushEnv) -> torch.Tensor:
+    """The centralized high-level view in the target frame (origin at the object, x toward the final target).
+
+    Layout (width 8 + 4 A + 2 L + 3 M, L = len(observe.path_ahead_m), M = observe.obstacles):
+        target distance (1) | object yaw (cos, sin) (2) | object velocity vx, vy (2) | current subgoal xy (2) |
+        robots' xy (2 A) | robots' yaw (cos, sin) (2 A) | path points ahead xy (2 L) |
+        nearest obstacles: centre xy and footprint distance to the object centre (3 M), nearest first |
+        episode time fraction (1)
+    """
+    observe = env.cfg["level"]["observe"]
+    to_target = env.target_xy - env.object_xy
+    heading = torch.atan2(to_target[:, 1], to_target[:, 0])  # (E,)
+    c, s = torch.cos(heading), torch.sin(heading)
+
+    def frame(points: torch.Tensor) -> torch.Tensor:  # (E, ..., 2) world -> target frame
+        rel = points - env.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2)
+        cc, ss = c.view(-1, *(1,) * (points.dim() - 2)), s.view(-1, *(1,) * (points.dim() - 2))
+        return torch.stack([cc * rel[..., 0] + ss * rel[..., 1], -ss * rel[..., 0] + cc * rel[..., 1]], -1)
+
+    vel = env.object_vel[:, :2]
+    vel_frame = torch.stack([c * vel[:, 0] + s * vel[:, 1], -s * vel[:, 0] + c * vel[:, 1]], -1)
+    ahead = env.path_points_ahead(torch.tensor(observe["path_ahead_m"], dtype=torch.float32))
+    parts = [
+        env.target_distance.unsqueeze(-1),
+        obs_terms.angle_features(env.object_yaw - heading),
+        vel_frame,
+        frame(env.subgoal_xy.unsqueeze(1)).flatten(1),
+        frame(env.robot_xy).flatten(1),
+        obs_terms.angle_features(env.robot_yaw - heading.unsqueeze(1)).flatten(1),
+        frame(ahead).flatten(1),
+    ]
+    m = observe["obstacles"]
+    if m:
+        if env.num_obstacles:
+            dist = point_distance(env.object_xy.unsqueeze(1), env.obstacles).squeeze(1)  # (E, K)
+            order = dist.argsort(-1)[:, :m]
+            centres = env.obstacles[..., :2].gather(1, order.unsqueeze(-1).expand(-1, -1, 2))
+            near = torch.cat(
+                [frame(centres).clamp(-20.0, 20.0), dist.gather(1, order).clamp(max=20.0).unsqueeze(-1)], -1
+            )
+        else:
+            near = torch.zeros(env.num_envs, 0, 3)
+        if near.shape[1] < m:  # fewer obstacles than observed slots: far away, straight behind
+            pad = torch.zeros(env.num_envs, m - near.shape[1], 3)
+            pad[..., 0], pad[..., 2] = -20.0, 20.0
+            near = torch.cat([near, pad], 1)
+        parts.append(near.flatten(1))
+    parts.append((env.episode_step.float() / env.max_episode_length).unsqueeze(-1))
+    return torch.cat(parts, -1)
+
+
+def high_obs_dim(cfg: dict) -> int:
+    """Width of `high_observation` for a config."""
+    observe = cfg["level"]["observe"]
+    return 8 + 4 * cfg["task"]["num_agents"] + 2 * len(observe["path_ahead_m"]) + 3 * observe["obstacles"]
