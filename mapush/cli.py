@@ -88,6 +88,48 @@ def bench(
         json_path.write_text(text + "\n")
 
 
+@app.command(context_settings=PASS_THROUGH)
+def plan(
+    ctx: typer.Context,
+    task: str = typer.Option("cuboid", "--task", help="The object (conf/task/)."),
+    seed: int = typer.Option(0, "--seed", help="The map: the one evaluation draws for this seed."),
+    json_path: Path | None = typer.Option(None, "--json", help="Write start, goal, path, obstacles, time, validity."),
+    png: Path | None = typer.Option(None, "--png", help="Draw the map and the path."),
+    maps: int = typer.Option(1, "--maps", help="Plan this many maps (seeds SEED..) and print timing figures."),
+) -> None:
+    """Plan the object's path through a random long-horizon map with OMPL (level=high's planner settings)."""
+    import json
+
+    from mapush import plan as planning
+    from mapush.config import compose_config, to_plain
+
+    if maps < 1:
+        raise BadInput(f"--maps {maps} must be 1 or more")
+    cfg = to_plain(compose_config(["level=high", f"task={task}", f"seed={seed}", *ctx.args]))
+    planner = planning.make_planner(cfg)
+    try:
+        record, _ = planning.plan_map(cfg, seed, planner)
+        state = "valid" if record["valid"] else ("INVALID" if record["solved"] else "no path found (planner failure)")
+        print(
+            f"{task} seed {seed}: {record['planner']} path {record['length_m']:.2f} m, "
+            f"{1000 * record['planning_time_s']:.1f} ms, {len(record['obstacles'])} obstacles, {state}"
+        )
+        if maps > 1:
+            t = planning.timing(cfg, seed, maps, planner)
+            print(
+                f"{t['maps']} maps: median {1000 * t['median_s']:.1f} ms, max {1000 * t['max_s']:.1f} ms, "
+                f"solved {t['solved']}, valid {t['valid']}"
+            )
+            record["timing"] = t
+    finally:
+        planner.close()
+    if json_path:
+        json_path.write_text(json.dumps(record, indent=2) + "\n")
+        print(json_path)
+    if png:
+        print(planning.draw(cfg, record, png))
+
+
 logs = typer.Typer(no_args_is_help=True, help="Inspect and repair MCAP logs (metrics.mcap, episodes.mcap).")
 app.add_typer(logs, name="logs")
 

@@ -3,8 +3,11 @@
 One decision every `level.decision_steps` mid-level steps (0.5 s by default; the original decided every 20 ms).
 Each mid-level step is the mid env's step: the mid policy's commands -> physics -> state, with the subgoal the
 high level chose. Success is the object within `success_distance` of the final target, 10+ m away through
-obstacles; exceptions end the episode (robots colliding, object or robot tilted, a robot or the object hitting an
-obstacle, a diverged simulation, and at evaluation a map the planner found no path through).
+obstacles. Exceptions (`EXCEPTIONS`: robots colliding, object or robot tilted, a robot or the object hitting an
+obstacle, a diverged simulation, and at evaluation a map the planner found no path through) are penalized in the
+decision they happen; those in `level.terminal_exceptions` also end the episode as a failure. By default contacts
+with obstacles and between robots are penalized but not terminal, as in the original's evaluation, whose
+high-level episodes ended only by success, timeout or NaN (paper-and-original.md 3.2).
 
 Frame of the observation (`high_observation`): the *target frame*, origin at the object's centre and x pointing
 from the object to the final target. Action: 2 numbers in [-1, 1]; the subgoal lies at distance
@@ -72,6 +75,7 @@ class HighPushEnv:
         self.sim_dt = self.sim.dt
         self.decision_steps = int(level["decision_steps"])
         self.dt = self.sim_dt * self.decision_steps
+        self.frame_dt = self.sim_dt  # recorders see every mid-level step
         self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
         self.action_scale = torch.ones(2)  # 2 actions in [-1, 1] (vecenv reads the width from here)
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
@@ -88,8 +92,14 @@ class HighPushEnv:
         self.obstacles = torch.zeros(E, self.num_obstacles, 5)
         self.plan_failed = torch.zeros(E, dtype=torch.bool)
         self.success = torch.zeros(E, dtype=torch.bool)
-        self.exception = torch.zeros(E, dtype=torch.bool)
-        self.exception_kind = torch.full((E,), -1)
+        self.exception = torch.zeros(E, dtype=torch.bool)  # an exception in the latest decision (the penalty)
+        self.failed = torch.zeros(E, dtype=torch.bool)  # a terminal exception: the episode ends as a failure
+        self.exception_kind = torch.full((E,), -1)  # the terminal exception, -1 for none
+        self.exception_decisions = torch.zeros(E)  # decisions with an exception, this episode
+        unknown = set(level["terminal_exceptions"]) - set(self.EXCEPTIONS)
+        if unknown:
+            raise BadInput(f"unknown level.terminal_exceptions {sorted(unknown)}; valid: {', '.join(self.EXCEPTIONS)}")
+        self.terminal = torch.tensor([k in level["terminal_exceptions"] for k in self.EXCEPTIONS])
         self.finish_time_s = torch.zeros(E)
         self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
         self.last_reward = torch.zeros(E, 1)
@@ -138,7 +148,9 @@ class HighPushEnv:
         self.inner_step[t] = 0
         self.success[t] = False
         self.exception[t] = False
+        self.failed[t] = False
         self.exception_kind[t] = -1
+        self.exception_decisions[t] = 0.0
         for sums in self.episode_sums.values():
             sums[t] = 0.0
         self._read_state()
@@ -223,8 +235,9 @@ class HighPushEnv:
         level, task = self.cfg["level"], self.cfg["task"]
         self.subgoal_xy = self.subgoal_from_action(actions.reshape(self.num_envs, 2))
         self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
-        finished = self.success | self.exception  # latched within the decision
+        finished = self.success | self.failed  # latched within the decision
         diverged_any = torch.zeros(self.num_envs, dtype=torch.bool)
+        self.exception = torch.zeros(self.num_envs, dtype=torch.bool)
         for k in range(self.decision_steps):
             commands = self.mid.commands(obs_terms.local_observation(self))
             failed = self.sim.step(commands)
@@ -234,20 +247,23 @@ class HighPushEnv:
             diverged[torch.from_numpy(failed)] = True
             diverged |= ~torch.isfinite(self.object_xy).all(-1) | ~torch.isfinite(self.robot_xy).flatten(1).all(-1)
             diverged_any |= diverged
-            kinds = self._exceptions(diverged, task, level)  # (kinds, E)
-            new_exception = kinds.any(0) & ~finished
-            new_success = (self.target_distance < level["success_distance"]) & ~finished & ~new_exception
-            self.exception_kind = torch.where(new_exception, kinds.int().argmax(0), self.exception_kind)
-            self.exception |= new_exception
+            kinds = self._exceptions(diverged, task, level) & ~finished  # (kinds, E)
+            self.exception |= kinds.any(0)
+            terminal = kinds & self.terminal.unsqueeze(1)
+            new_failure = terminal.any(0)
+            new_success = (self.target_distance < level["success_distance"]) & ~finished & ~new_failure
+            self.exception_kind = torch.where(new_failure, terminal.int().argmax(0), self.exception_kind)
+            self.failed |= new_failure
             self.success |= new_success
-            finished = finished | new_exception | new_success
+            finished = finished | new_failure | new_success
             if self.recorders:
                 last = k == self.decision_steps - 1
                 done_now = self._done_after_decision(finished) if last else torch.zeros_like(finished)
                 for recorder in self.recorders:
                     recorder.capture(self, commands, self.last_reward, self.last_parts, done_now)
         self.episode_step += 1
-        terminated = self.success | self.exception
+        self.exception_decisions += self.exception.float()
+        terminated = self.success | self.failed
         truncated = (self.episode_step >= self.max_episode_length) & ~terminated
         reward, parts = self.rewards.compute(self)
         reward = torch.nan_to_num(reward, 0.0, 0.0, 0.0)
@@ -282,7 +298,7 @@ class HighPushEnv:
         end = {
             "done": done.clone(),
             "success": self.success & done,
-            "exception": self.exception & done,
+            "exception": self.failed & done,
             "diverged": diverged & done,
             "exception_kind": torch.where(done, self.exception_kind, -1),
             "planner_failure": self.plan_failed & done,
@@ -296,7 +312,8 @@ class HighPushEnv:
         self._recent_next = int(slots[-1] + 1) % RECENT_EPISODES
         log = {f"Reward/{name}": sums[done].mean() for name, sums in self.episode_sums.items()}
         log["Metrics/success_rate"] = self.success[done].float().mean()
-        log["Metrics/exception_rate"] = self.exception[done].float().mean()
+        log["Metrics/exception_rate"] = self.failed[done].float().mean()
+        log["Metrics/exception_decisions"] = self.exception_decisions[done].mean()
         log["Metrics/episode_time_s"] = end["time_s"][done].mean()
         log["Metrics/recent_success_rate"] = self.recent_success.nanmean()
         return {"episode_end": end, "log": log}

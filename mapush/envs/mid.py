@@ -49,6 +49,7 @@ class MidPushEnv:
         self.sim = BatchSim(cfg["sim"], task, self.lowlevel, self.num_envs)
         self.rewards = RewardManager(cfg["reward"]["terms"])
         self.dt = self.sim.dt
+        self.frame_dt = self.dt  # interval between recorder captures
         # the tolerance keeps 0.14 s / 0.02 s = 7.000000000000001 at 7 steps
         self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
         self.action_scale = torch.tensor(level["action_scale"], dtype=torch.float32)

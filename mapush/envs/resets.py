@@ -145,7 +145,8 @@ def sample_obstacles(
     """Obstacle blocks of `n` episodes, (n, K, 5) rows of (x, y, yaw, size x, size y).
 
     With a `path` (training) the centres lie in a strip of `train_strip_width` around it (paper App. A); without
-    one (evaluation) they are uniform between the start and goal areas across the room. No obstacle overlaps the
+    one (evaluation) they are uniform between the start and goal areas, across the span of both areas' y ranges
+    widened by `test_margin` on each side. No obstacle overlaps the
     start layout, the target or another obstacle; one that finds no room in `MAX_REJECTION_ROUNDS` draws is parked
     outside the arena (absent).
     """
@@ -157,6 +158,9 @@ def sample_obstacles(
     half_room = cfg["sim"]["arena_size"] / 2 - half_diag - 0.1
     keep_start, keep_goal = start_clearance(cfg) + half_diag, goal_clearance(cfg) + half_diag
     apart = 2 * half_diag + spec["gap"]
+    x_lo, x_hi = level["start_area"]["x"][1], level["goal_area"]["x"][0]
+    y_lo = max(min(level["start_area"]["y"][0], level["goal_area"]["y"][0]) - spec["test_margin"], -half_room)
+    y_hi = min(max(level["start_area"]["y"][1], level["goal_area"]["y"][1]) + spec["test_margin"], half_room)
     rows = parked(n, count, 1.0)
     rows[..., 3:] = size
     for k in range(count):
@@ -166,8 +170,7 @@ def sample_obstacles(
             if path is not None:
                 centre = _in_strip(gen, path[todo], spec["train_strip_width"])
             else:
-                x_lo, x_hi = level["start_area"]["x"][1], level["goal_area"]["x"][0]
-                centre = torch.stack([uniform(gen, x_lo, x_hi, m), uniform(gen, -half_room, half_room, m)], -1)
+                centre = torch.stack([uniform(gen, x_lo, x_hi, m), uniform(gen, y_lo, y_hi, m)], -1)
             ok = (centre.abs() <= half_room).all(-1)
             ok &= torch.linalg.vector_norm(centre - start[todo], dim=-1) >= keep_start
             ok &= torch.linalg.vector_norm(centre - target[todo], dim=-1) >= keep_goal

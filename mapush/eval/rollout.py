@@ -50,9 +50,9 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
     for recorder in recorders:
         if isinstance(recorder, EpisodeRecorder):
             count = min(int(cfg["log"]["eval_episodes"]), episodes)
-            recorder.watch(list(range(count)), env.dt, f"seed {seed}", from_start=True)
+            recorder.watch(list(range(count)), env.frame_dt, f"seed {seed}", from_start=True)
         else:
-            recorder.watch(env.dt, f"seed {seed}")
+            recorder.watch(env.frame_dt, f"seed {seed}")
         env.recorders.append(recorder)
     load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
     policy = runner.get_inference_policy()
