@@ -131,7 +131,8 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
     if interval > 0:
-        every_steps = interval * int(cfg["algo"]["num_steps_per_env"])
+        frames_per_step = round(env.dt / env.frame_dt)  # the high level records every mid-level step
+        every_steps = interval * int(cfg["algo"]["num_steps_per_env"]) * frames_per_step
         recorder = attach_episode_recorder(cfg, env, Path(next_free_path(str(run_dir / TRAIN_EPISODES))), every_steps)
     try:
         learn(runner, total - done, run_dir / "train.log")
