@@ -1,0 +1,132 @@
+"""The high-level env on a frozen mid level, its training through the CLI, and bad mid-level inputs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import torch
+
+from mapush.envs.high import HighPushEnv, high_obs_dim
+from mapush.planning.planner import PlanResult
+from mapush.rl.frozen import load_mid_policy
+
+
+@pytest.fixture(scope="module")
+def mid(smoke_run):
+    """The frozen mid level of the session's `debug=smoke` run (cuboid, 2 agents)."""
+    from conftest import composed
+
+    return load_mid_policy(smoke_run, composed("level=high")["task"])
+
+
+@pytest.fixture
+def high_cfg(cfg_for, smoke_run):
+    return cfg_for("level=high", f"mid={smoke_run}", "level.episode_length_s=4")
+
+
+class RecordingMid:
+    """Wraps the frozen mid level and records every subgoal distance its observations show."""
+
+    def __init__(self, mid):
+        self.mid, self.subgoal_distances = mid, []
+
+    def commands(self, local_obs: torch.Tensor) -> torch.Tensor:
+        # local obs 0:2 = the subgoal in the robot's frame, 2:4 = the object; their difference's norm is the
+        # object-subgoal distance the mid level is asked to close
+        self.subgoal_distances.append(torch.linalg.vector_norm(local_obs[..., 0:2] - local_obs[..., 2:4], dim=-1))
+        return self.mid.commands(local_obs)
+
+
+def test_step_shapes_and_no_nan(high_cfg, mid):
+    env = HighPushEnv(high_cfg, mid, num_envs=3)
+    obs = env.observations()
+    assert obs["policy"].shape == (3, 1, high_obs_dim(high_cfg)) == obs["critic"].shape
+    gen = torch.Generator().manual_seed(0)
+    for _ in range(10):  # 4 s episodes of 0.5 s decisions: 8 decisions, so this crosses a reset
+        obs, reward, terminated, truncated, _ = env.step(torch.rand(3, 1, 2, generator=gen) * 2 - 1)
+        assert reward.shape == (3, 1) and terminated.shape == truncated.shape == (3,)
+        assert torch.isfinite(obs["policy"]).all() and torch.isfinite(reward).all()
+    assert env.max_episode_length == 8
+
+
+def test_frozen_mid_level_gets_subgoals_inside_its_trained_range(high_cfg, mid):
+    recording = RecordingMid(mid)
+    env = HighPushEnv(high_cfg, recording, num_envs=4)
+    for action in ([-1.0, -1.0], [1.0, 1.0], [0.0, 0.0], [0.5, -0.3]):
+        recording.subgoal_distances.clear()
+        env.step(torch.tensor(action).expand(4, 1, 2))
+        first = recording.subgoal_distances[0]  # set this decision, before the object moved
+        assert first.min().item() >= 1.5 - 1e-4 and first.max().item() <= 3.0 + 1e-4
+
+
+def test_action_zero_follows_the_path_at_the_middle_distance(high_cfg, mid):
+    env = HighPushEnv(high_cfg, mid, num_envs=2)
+    direction = env.path_direction()
+    subgoal = env.subgoal_from_action(torch.zeros(2, 2))
+    assert torch.allclose(subgoal, env.object_xy + 2.25 * direction, atol=1e-5)
+
+
+def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
+    class NoPath:
+        def plan(self, start, goal, obstacles, waypoints):
+            return PlanResult(None, solved=False, valid=False, planning_time_s=0.0, length_m=0.0)
+
+    env = HighPushEnv(high_cfg, mid, num_envs=2, planner=NoPath())
+    _, _, terminated, _, info = env.step(torch.zeros(2, 1, 2))
+    assert terminated.all()
+    assert info["episode_end"]["planner_failure"].all()
+    assert not info["episode_end"]["success"].any()
+    assert (info["episode_end"]["exception_kind"] == HighPushEnv.EXCEPTIONS.index("planner_failure")).all()
+
+
+def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid):
+    env = HighPushEnv(high_cfg, mid, num_envs=2)
+    env.obstacles[0, 0, :2] = env.robot_xy[0, 0]  # an obstacle right on robot 0 of env 0
+    env.obstacles[0, 0, 2] = 0.0
+    env.sim.set_obstacles(torch.arange(2).numpy(), env.obstacles)
+    _, reward, terminated, _, _ = env.step(torch.zeros(2, 1, 2))
+    assert env.exception.tolist() == [True, False]
+    assert not terminated[0]
+    assert reward[0, 0] < reward[1, 0]  # the -0.5 exception penalty (and obstacle proximity)
+
+
+def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_path):
+    proc = cli("train", "level=high", f"mid={smoke_run}", "debug=smoke", f"train.run_root={tmp_path}")
+    assert proc.returncode == 0, proc.stderr
+    run_dir = Path(proc.stdout.strip().splitlines()[-1])
+    assert (run_dir / "model_1.pt").is_file() and (run_dir / "policy.pt").is_file()
+    evaluated = cli("eval", run_dir, "--episodes", "2")
+    assert evaluated.returncode == 0, evaluated.stderr
+    result = json.loads((run_dir / "eval.json").read_text())
+    assert result["per_seed"][0]["planner_failure_rate"] == 0.0
+    assert 0.0 <= result["success_rate"] <= 1.0 and result["timeout_s"] == 1.0
+
+
+@pytest.mark.parametrize(
+    ("mid_arg", "extra", "message"),
+    [
+        (None, [], "needs the frozen mid level: mid=RUN_DIR"),
+        ("nowhere", [], "nowhere' does not exist; valid: a run dir or a model_<iteration>.pt"),
+        ("SMOKE", ["task=tblock"], "trained on task cuboid with 2 agents, not tblock with 2"),
+        ("SMOKE", ["task.num_agents=3"], "not cuboid with 3; valid: a mid run of task=cuboid task.num_agents=3"),
+    ],
+)
+def test_a_missing_or_mismatched_mid_level_is_bad_input(cli, smoke_run, tmp_path, mid_arg, extra, message):
+    args = ["train", "level=high", "debug=smoke", f"train.run_root={tmp_path}", *extra]
+    if mid_arg:
+        args.append(f"mid={smoke_run if mid_arg == 'SMOKE' else mid_arg}")
+    proc = cli(*args)
+    assert proc.returncode == 2
+    assert message in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not any(tmp_path.rglob("config.yaml"))  # nothing written
+
+
+def test_a_high_level_run_is_not_a_mid_level(cli, smoke_run, tmp_path):
+    first = cli("train", "level=high", f"mid={smoke_run}", "debug=smoke", f"train.run_root={tmp_path}")
+    high_run = first.stdout.strip().splitlines()[-1]
+    proc = cli("train", "level=high", f"mid={high_run}", "debug=smoke", f"train.run_root={tmp_path}")
+    assert proc.returncode == 2
+    assert "is a high-level run; valid: a mid-level run dir" in proc.stderr

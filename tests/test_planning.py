@@ -1,0 +1,139 @@
+"""Planning: obstacle geometry, random curved paths, obstacle placement, OMPL plans, `mapush plan`."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from mapush.envs.resets import goal_clearance, sample_high_layout, sample_obstacles, start_clearance
+from mapush.errors import BadInput
+from mapush.plan import random_map
+from mapush.planning.geometry import corners, point_distance, polygon_gap
+from mapush.planning.paths import length, random_curved_paths, resample
+from mapush.planning.planner import ObjectPlanner
+
+PLANNER = {"name": "RRTConnect", "time_limit_s": 1.0, "range_m": 2.0, "margin_m": 0.1, "resolution_m": 0.05,
+           "simplify": True}  # fmt: skip
+
+
+@pytest.fixture
+def high_cfg(cfg_for):
+    return cfg_for("level=high")
+
+
+def test_point_distance_to_a_rotated_square_by_hand():
+    square = torch.tensor([[0.0, 0.0, math.pi / 4, 1.0, 1.0]])  # a diamond with corners at +-0.707 on the axes
+    points = torch.tensor([[2.0, 0.0], [0.0, 0.0], [1.0, 1.0]])
+    d = point_distance(points, square)[:, 0]
+    assert d[0].item() == pytest.approx(2.0 - math.sqrt(0.5), abs=1e-5)  # to the corner on the x axis
+    assert d[1].item() == 0.0  # inside
+    assert d[2].item() == pytest.approx(math.sqrt(2.0) - 0.5, abs=1e-5)  # to the middle of an edge
+
+
+def test_polygon_gap_by_hand():
+    a = corners(torch.tensor([0.0, 0.0, 0.0, 1.0, 1.0]))
+    apart = corners(torch.tensor([2.0, 0.0, 0.0, 1.0, 1.0]))
+    overlapping = corners(torch.tensor([0.8, 0.3, 0.3, 1.0, 1.0]))
+    assert polygon_gap(a, apart).item() == pytest.approx(1.0, abs=1e-6)
+    assert polygon_gap(a, overlapping).item() < 0
+
+
+def test_random_curved_paths_run_from_start_to_goal_evenly_spaced():
+    gen = torch.Generator().manual_seed(0)
+    start, goal = torch.tensor([[-8.0, 0.0], [-8.0, 3.0]]), torch.tensor([[8.0, 2.0], [8.0, -3.0]])
+    paths = random_curved_paths(gen, start, goal, noise=1.0, count=32)
+    assert paths.shape == (2, 32, 2)
+    assert torch.allclose(paths[:, 0], start, atol=1e-5)
+    assert torch.allclose(paths[:, -1], goal, atol=1e-5)
+    steps = torch.linalg.vector_norm(paths[:, 1:] - paths[:, :-1], dim=-1)
+    assert (steps.std(-1) / steps.mean(-1)).max().item() < 0.01
+    straight = torch.linalg.vector_norm(goal - start, dim=-1)
+    assert (length(paths) >= straight - 1e-4).all()
+    assert (length(paths) < straight * 1.3).all()  # curved, not wild
+    other = random_curved_paths(torch.Generator().manual_seed(1), start, goal, noise=1.0, count=32)
+    assert not torch.allclose(paths, other)
+
+
+def test_resample_keeps_ends_and_spacing():
+    corner = torch.tensor([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]])
+    out = resample(corner, 5)
+    assert torch.allclose(out, torch.tensor([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 2.0]]))
+
+
+@pytest.mark.parametrize("training", [True, False])
+def test_obstacles_never_overlap_the_start_the_goal_or_each_other(high_cfg, training):
+    gen = torch.Generator().manual_seed(0)
+    n = 200
+    layout = sample_high_layout(gen, n, high_cfg)
+    start, goal = layout["object_xy"], layout["target_xy"]
+    assert (torch.linalg.vector_norm(goal - start, dim=-1) >= 10.0).all()
+    path = random_curved_paths(gen, start, goal, 1.0, 32) if training else None
+    obstacles = sample_obstacles(gen, high_cfg, start, goal, path)
+    assert obstacles.shape == (n, high_cfg["level"]["obstacles"]["count"], 5)
+    placed = obstacles[..., 0].abs() < 100
+    assert placed.float().mean() > 0.9
+    half_diag = math.sqrt(2) / 2
+    centres = obstacles[..., :2]
+    d_start = torch.linalg.vector_norm(centres - start.unsqueeze(1), dim=-1)
+    d_goal = torch.linalg.vector_norm(centres - goal.unsqueeze(1), dim=-1)
+    assert (d_start[placed] >= start_clearance(high_cfg) + half_diag - 1e-5).all()
+    assert (d_goal[placed] >= goal_clearance(high_cfg) + half_diag - 1e-5).all()
+    pair = torch.linalg.vector_norm(centres.unsqueeze(2) - centres.unsqueeze(1), dim=-1) + torch.eye(8) * 1e9
+    assert (pair >= 2 * half_diag).all()  # footprints never overlap
+    if training:  # within the 4 m strip around the path
+        near = point_distance(path, torch.cat([centres, torch.zeros(n, 8, 3)], -1)).amin(1)  # (n, K)
+        assert (near[placed] <= 2.0 + 0.05).all()
+
+
+def test_planned_paths_avoid_the_inflated_obstacles_and_have_the_waypoint_count(high_cfg):
+    planner = ObjectPlanner(PLANNER, 24.0, 0.85)
+    radius = 0.85
+    try:
+        for seed in range(5):
+            start, goal, obstacles = random_map(high_cfg, seed)
+            result = planner.plan(start, goal, obstacles, 32)
+            assert result.solved and result.valid
+            assert result.path.shape == (32, 2)
+            assert np.allclose(result.path[0], start, atol=1e-4) and np.linalg.norm(result.path[-1] - goal) <= 0.05
+            dense = resample(torch.from_numpy(result.path), 2000)
+            clear = point_distance(dense, torch.from_numpy(obstacles).float()).amin().item()
+            assert clear >= radius  # the object's disc never touches a true obstacle
+            assert 0 < result.planning_time_s < 1.0
+    finally:
+        planner.close()
+
+
+def test_an_unreachable_goal_is_a_planner_failure():
+    planner = ObjectPlanner(PLANNER | {"time_limit_s": 0.2}, 24.0, 0.85)
+    wall = np.array([[0.0, y, 0.0, 1.0, 1.0] for y in np.arange(-11.5, 12.0, 1.0)])  # floor to ceiling
+    try:
+        result = planner.plan(np.array([-8.0, 0.0]), np.array([8.0, 0.0]), wall, 32)
+    finally:
+        planner.close()
+    assert not result.solved and not result.valid and result.path is None
+
+
+def test_unknown_planner_names_the_valid_ones():
+    with pytest.raises(BadInput, match=r"unknown planner 'RRTFast'; valid: .*RRTConnect"):
+        ObjectPlanner(PLANNER | {"name": "RRTFast"}, 24.0, 0.85)
+
+
+def test_plan_cli_writes_the_contract_json_and_a_png(cli, tmp_path):
+    proc = cli("plan", "--task", "tblock", "--seed", "2", "--json", tmp_path / "p.json", "--png", tmp_path / "p.png")
+    assert proc.returncode == 0, proc.stderr
+    record = json.loads((tmp_path / "p.json").read_text())
+    assert {"start", "goal", "path", "obstacles", "planning_time_s", "valid"} <= set(record)
+    assert record["valid"] and len(record["path"]) == 32
+    assert all(len(quad) == 4 for quad in record["obstacles"])
+    assert "valid" in proc.stdout and " m, " in proc.stdout
+    assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_plan_cli_with_a_bad_task_is_bad_input(cli):
+    proc = cli("plan", "--task", "sphere")
+    assert proc.returncode == 2
+    assert "sphere" in proc.stderr and "cuboid" in proc.stderr
