@@ -36,7 +36,7 @@ def test_unknown_task(train_bad):
 
 
 def test_unknown_level(train_bad):
-    assert_bad_input(train_bad("level=high"), "'high'", "valid: mid")
+    assert_bad_input(train_bad("level=low"), "'low'", "high", "mid")
 
 
 def test_unknown_reward_term(train_bad):

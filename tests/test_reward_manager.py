@@ -21,6 +21,7 @@ def stand_in() -> SimpleNamespace:
     return SimpleNamespace(
         num_envs=2,
         num_agents=2,
+        policy_agents=2,
         success=torch.tensor([True, False]),
         exception=torch.tensor([False, True]),
         prev_subgoal_distance=torch.tensor([2.0, 1.0]),

@@ -34,7 +34,7 @@ def test_env_flags_repeat_for_every_agent_of_the_env():
 class FakeEnv:
     """2 envs x 3 agents whose step returns reward 10 e + a, env 0 terminated, env 1 truncated."""
 
-    num_envs, num_agents, max_episode_length = 2, 3, 50
+    num_envs, num_agents, policy_agents, max_episode_length = 2, 3, 3, 50
     action_scale = torch.tensor([0.5, 0.5, 0.5])  # (vx, vy, yaw rate): 3 actions per agent
 
     def __init__(self):
