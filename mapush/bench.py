@@ -25,7 +25,7 @@ ROUNDS = 3
 
 
 def _time_env(env: MidPushEnv, steps: int, gen: torch.Generator) -> float:
-    actions = torch.rand(steps, env.num_envs, env.num_agents, 3, generator=gen) * 2 - 1
+    actions = torch.rand(steps, env.num_envs, env.num_agents, env.num_actions, generator=gen) * 2 - 1
     start = time.perf_counter()
     for k in range(steps):
         env.step(actions[k])

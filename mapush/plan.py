@@ -14,7 +14,7 @@ import numpy as np
 import torch
 
 from mapush.envs.resets import sample_high_layout, sample_obstacles
-from mapush.planning.geometry import corners
+from mapush.planning.geometry import corners, present
 from mapush.planning.planner import ObjectPlanner, PlanResult
 from mapush.sim.shapes import object_radius
 
@@ -36,7 +36,7 @@ def plan_map(cfg: dict, seed: int, planner: ObjectPlanner) -> tuple[dict, PlanRe
     """Plan the map of `seed`; returns the JSON record and the raw result."""
     start, goal, obstacles = random_map(cfg, seed)
     result = planner.plan(start, goal, obstacles, cfg["level"]["path"]["points"])
-    present = obstacles[np.abs(obstacles[:, 0]) < cfg["sim"]["arena_size"]]  # parked ones are not on the map
+    on_map = obstacles[present(obstacles)]
     record = {
         "task": cfg["task"]["name"],
         "seed": seed,
@@ -44,7 +44,7 @@ def plan_map(cfg: dict, seed: int, planner: ObjectPlanner) -> tuple[dict, PlanRe
         "start": start.tolist(),
         "goal": goal.tolist(),
         "path": result.path.tolist() if result.path is not None else [],
-        "obstacles": corners(torch.from_numpy(present)).tolist(),
+        "obstacles": corners(torch.from_numpy(on_map)).tolist(),
         "planning_time_s": result.planning_time_s,
         "solved": result.solved,
         "valid": result.valid,

@@ -20,15 +20,14 @@ FIXED_PANELS = ("Metrics/success_rate", "Train/mean_reward")
 IGNORED_OVERRIDES = ("seed=", "train.run_root=", "train.progress=")
 
 
-def _group_key(run_dir: Path) -> str:
-    cfg = load_run_config(run_dir)
+def _group_key(cfg) -> str:
+    cfg = cfg.copy()
     cfg.pop("seed")
     cfg.train.pop("run_root", None)
     return OmegaConf.to_yaml(cfg)
 
 
-def _label(run_dir: Path) -> str:
-    cfg = load_run_config(run_dir)
+def _label(run_dir: Path, cfg) -> str:
     path = run_dir / "overrides.yaml"
     overrides = [str(o) for o in OmegaConf.load(path)] if path.is_file() else []
     kept = [o for o in overrides if not o.startswith(IGNORED_OVERRIDES)]
@@ -40,9 +39,10 @@ def group_runs(run_dirs: list[Path]) -> dict[str, list[Path]]:
     groups: dict[str, list[Path]] = {}
     labels: dict[str, str] = {}
     for run_dir in run_dirs:
-        key = _group_key(run_dir)
+        cfg = load_run_config(run_dir)
+        key = _group_key(cfg)
         if key not in labels:
-            label = _label(run_dir)
+            label = _label(run_dir, cfg)
             labels[key] = label if label not in groups else f"{label} ({len(groups) + 1})"
             groups[labels[key]] = []
         groups[labels[key]].append(run_dir)

@@ -83,9 +83,10 @@ def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
 
 def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid):
     env = HighPushEnv(high_cfg, mid, num_envs=2)
-    env.obstacles[0, 0, :2] = env.robot_xy[0, 0]  # an obstacle right on robot 0 of env 0
-    env.obstacles[0, 0, 2] = 0.0
-    env.sim.set_obstacles(torch.arange(2).numpy(), env.obstacles)
+    obstacles = env.obstacles.clone()
+    obstacles[0, 0, :2] = env.robot_xy[0, 0]  # an obstacle right on robot 0 of env 0
+    obstacles[0, 0, 2] = 0.0
+    env.set_obstacles(torch.arange(2).numpy(), obstacles)
     _, reward, terminated, _, _ = env.step(torch.zeros(2, 1, 2))
     assert env.exception.tolist() == [True, False]
     assert not terminated[0]

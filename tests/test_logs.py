@@ -380,12 +380,18 @@ def test_sigkilled_episode_file_is_recovered_up_to_the_last_episode(tmp_path, cl
     assert len(topics["/scene"]) >= 10 * last  # 0.2 s episodes: 10 steps each
 
 
-def test_sigterm_leaves_complete_logs_and_the_run_resumes(cli, tmp_path):
+def _start_training(tmp_path: Path, iterations: int, checkpoints: int) -> tuple[subprocess.Popen, Path]:
+    """A `debug=smoke` training in a subprocess, once it has written `checkpoints` checkpoints."""
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    cmd = [*MAPUSH, "train", "debug=smoke", "train.iterations=5000", f"train.run_root={tmp_path}"]
+    cmd = [*MAPUSH, "train", "debug=smoke", f"train.iterations={iterations}", f"train.run_root={tmp_path}"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
     run_dir = Path(proc.stdout.readline().strip())
-    _wait_for(lambda: len(list(run_dir.glob("model_*.pt"))) >= 20)
+    _wait_for(lambda: len(list(run_dir.glob("model_*.pt"))) >= checkpoints)
+    return proc, run_dir
+
+
+def test_sigterm_leaves_complete_logs_and_the_run_resumes(cli, tmp_path):
+    proc, run_dir = _start_training(tmp_path, iterations=5000, checkpoints=20)
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=60) == 143
     metrics = summary(run_dir / "metrics.mcap")
@@ -395,11 +401,7 @@ def test_sigterm_leaves_complete_logs_and_the_run_resumes(cli, tmp_path):
 
 
 def test_a_sigkilled_run_resumes_with_its_logs_repaired(cli, tmp_path):
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    cmd = [*MAPUSH, "train", "debug=smoke", "train.iterations=30", f"train.run_root={tmp_path}"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
-    run_dir = Path(proc.stdout.readline().strip())
-    _wait_for(lambda: len(list(run_dir.glob("model_*.pt"))) >= 5)
+    proc, run_dir = _start_training(tmp_path, iterations=30, checkpoints=5)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert not summary(run_dir / "metrics.mcap")["complete"]

@@ -36,6 +36,7 @@ class FakeEnv:
 
     num_envs, num_agents, policy_agents, max_episode_length = 2, 3, 3, 50
     action_scale = torch.tensor([0.5, 0.5, 0.5])  # (vx, vy, yaw rate): 3 actions per agent
+    num_actions = 3
 
     def __init__(self):
         self.cfg: dict = {}

@@ -24,7 +24,16 @@ import numpy as np
 import torch
 
 from mapush.envs import observations as obs_terms
-from mapush.envs.resets import check_agent_count, sample_high_layout, sample_obstacles
+from mapush.envs.common import (
+    BASE_EXCEPTIONS,
+    EpisodeOutcomes,
+    base_exception_flags,
+    divergence,
+    pose_frame,
+    read_sim_state,
+    validate_push_config,
+)
+from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS
 from mapush.planning.geometry import corners, point_distance, polygon_gap, rectangles, transform
@@ -32,8 +41,6 @@ from mapush.planning.paths import nearest_index, random_curved_paths
 from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
 from mapush.sim.shapes import object_hull, object_radius
-
-RECENT_EPISODES = 500
 
 
 class HighPushEnv:
@@ -48,10 +55,7 @@ class HighPushEnv:
     """
 
     EXCEPTIONS = (
-        "diverged",
-        "robot_collision",
-        "object_tilt",
-        "robot_tilt",
+        *BASE_EXCEPTIONS,
         "robot_hit_obstacle",
         "object_hit_obstacle",
         "planner_failure",
@@ -77,7 +81,7 @@ class HighPushEnv:
         self.dt = self.sim_dt * self.decision_steps
         self.frame_dt = self.sim_dt  # recorders see every mid-level step
         self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
-        self.action_scale = torch.ones(2)  # 2 actions in [-1, 1] (vecenv reads the width from here)
+        self.num_actions = 2  # the subgoal's turn and distance, each in [-1, 1]
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
         self.object_radius = object_radius(task["object"])
         self.robot_size = tuple(cfg["lowlevel"]["size"][:2])
@@ -90,6 +94,7 @@ class HighPushEnv:
         self.target_xy = torch.zeros(E, 2)
         self.path = torch.zeros(E, level["path"]["points"], 2)
         self.obstacles = torch.zeros(E, self.num_obstacles, 5)
+        self.obstacle_corners = torch.zeros(E, self.num_obstacles, 4, 2)  # fixed per episode, set at reset
         self.plan_failed = torch.zeros(E, dtype=torch.bool)
         self.success = torch.zeros(E, dtype=torch.bool)
         self.exception = torch.zeros(E, dtype=torch.bool)  # an exception in the latest decision (the penalty)
@@ -100,22 +105,14 @@ class HighPushEnv:
         if unknown:
             raise BadInput(f"unknown level.terminal_exceptions {sorted(unknown)}; valid: {', '.join(self.EXCEPTIONS)}")
         self.terminal = torch.tensor([k in level["terminal_exceptions"] for k in self.EXCEPTIONS])
-        self.finish_time_s = torch.zeros(E)
         self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
         self.last_reward = torch.zeros(E, 1)
         self.last_parts = {name: torch.zeros(E, 1) for name in self.rewards.terms}
-        self.recent_success = torch.full((RECENT_EPISODES,), float("nan"))
-        self._recent_next = 0
+        self.outcomes = EpisodeOutcomes()
         self.recorders = []
         self.reset(np.arange(E))
 
-    @staticmethod
-    def validate(cfg: dict) -> None:
-        """Check a config before anything is built: backend, agent count, reward terms, the mid level's settings."""
-        if cfg["lowlevel"]["name"] not in BACKENDS:
-            raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
-        check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
-        RewardManager(cfg["reward"]["terms"])
+    validate = staticmethod(validate_push_config)
 
     @property
     def episode_time_s(self) -> torch.Tensor:
@@ -140,8 +137,8 @@ class HighPushEnv:
             obstacles = sample_obstacles(self.generator, self.cfg, start, target, None)
             path, failed = self._plan(start, target, obstacles, points)
         self.sim.reset(ids, layout)
-        self.sim.set_obstacles(ids, obstacles)
-        self.target_xy[t], self.path[t], self.obstacles[t] = target, path, obstacles
+        self.target_xy[t], self.path[t] = target, path
+        self.set_obstacles(ids, obstacles)
         self.subgoal_xy[t] = layout["subgoal_xy"]
         self.plan_failed[t] = failed
         self.episode_step[t] = 0
@@ -154,6 +151,13 @@ class HighPushEnv:
         for sums in self.episode_sums.values():
             sums[t] = 0.0
         self._read_state()
+
+    def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
+        """Place the obstacles (n, K, 5) of envs `ids`, in the simulation and in the env's geometry."""
+        t = torch.from_numpy(ids)
+        self.obstacles[t] = obstacles
+        self.obstacle_corners[t] = corners(obstacles)
+        self.sim.set_obstacles(ids, obstacles)
 
     def _plan(self, start, target, obstacles, points) -> tuple[torch.Tensor, torch.Tensor]:
         """OMPL paths for each env (a straight line where planning fails, which ends that episode at once)."""
@@ -169,19 +173,23 @@ class HighPushEnv:
         return torch.stack(paths), torch.tensor(failed)
 
     def _read_state(self) -> None:
-        for name, value in self.sim.read().items():
-            setattr(self, name, value)
+        """The simulation state (`read_sim_state`), the target distance and the gaps to the obstacles."""
+        read_sim_state(self)
         self.target_distance = torch.linalg.vector_norm(self.object_xy - self.target_xy, dim=-1)
-        self.robot_distance = torch.linalg.vector_norm(self.robot_xy.unsqueeze(2) - self.robot_xy.unsqueeze(1), dim=-1)
         if self.num_obstacles:
-            obstacles = corners(self.obstacles)  # (E, K, 4, 2)
             hull = transform(self.hull, self.object_xy, self.object_yaw)  # (E, H, 2)
             self.object_obstacle_gap = _near_gaps(
-                self.object_xy.unsqueeze(1), self.object_radius, hull.unsqueeze(1), self.obstacles, obstacles
+                self.object_xy.unsqueeze(1),
+                self.object_radius,
+                hull.unsqueeze(1),
+                self.obstacles,
+                self.obstacle_corners,
             )[:, 0]  # (E, K)
             boxes = rectangles(self.robot_xy, self.robot_yaw, *self.robot_size)  # (E, A, 4, 2)
             robot_radius = math.hypot(*self.robot_size) / 2
-            self.robot_obstacle_gap = _near_gaps(self.robot_xy, robot_radius, boxes, self.obstacles, obstacles)
+            self.robot_obstacle_gap = _near_gaps(
+                self.robot_xy, robot_radius, boxes, self.obstacles, self.obstacle_corners
+            )
         else:
             self.object_obstacle_gap = torch.full((self.num_envs, 1), float("inf"))
             self.robot_obstacle_gap = torch.full((self.num_envs, self.num_agents, 1), float("inf"))
@@ -232,7 +240,7 @@ class HighPushEnv:
         Returns:
             obs, rewards (E, 1), terminated (E,), truncated (E,), info (`log`, `episode_end`) as `MidPushEnv.step`.
         """
-        level, task = self.cfg["level"], self.cfg["task"]
+        level = self.cfg["level"]
         self.subgoal_xy = self.subgoal_from_action(actions.reshape(self.num_envs, 2))
         self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
         finished = self.success | self.failed  # latched within the decision
@@ -243,11 +251,9 @@ class HighPushEnv:
             failed = self.sim.step(commands)
             self._read_state()
             self.inner_step += (~finished).long()
-            diverged = torch.zeros(self.num_envs, dtype=torch.bool)
-            diverged[torch.from_numpy(failed)] = True
-            diverged |= ~torch.isfinite(self.object_xy).all(-1) | ~torch.isfinite(self.robot_xy).flatten(1).all(-1)
+            diverged = divergence(self, failed)
             diverged_any |= diverged
-            kinds = self._exceptions(diverged, task, level) & ~finished  # (kinds, E)
+            kinds = self._exceptions(diverged) & ~finished  # (kinds, E)
             self.exception |= kinds.any(0)
             terminal = kinds & self.terminal.unsqueeze(1)
             new_failure = terminal.any(0)
@@ -278,19 +284,15 @@ class HighPushEnv:
     def _done_after_decision(self, finished: torch.Tensor) -> torch.Tensor:
         return finished | (self.episode_step + 1 >= self.max_episode_length)
 
-    def _exceptions(self, diverged: torch.Tensor, task: dict, level: dict) -> torch.Tensor:
+    def _exceptions(self, diverged: torch.Tensor) -> torch.Tensor:
         """(len(EXCEPTIONS), E) flags in the order of EXCEPTIONS."""
-        pair = self.robot_distance + torch.eye(self.num_agents) * 1e9
-        tolerance = level["contact_tolerance"]
-        return torch.stack(
+        tolerance = self.cfg["level"]["contact_tolerance"]
+        return torch.cat(
             [
-                diverged,
-                (pair < task["collision_distance"]).flatten(1).any(-1),
-                self.object_tilt > level["object_max_tilt"],
-                (self.robot_tilt > level["robot_max_tilt"]).any(-1),
-                (self.robot_obstacle_gap < tolerance).flatten(1).any(-1),
-                (self.object_obstacle_gap < tolerance).any(-1),
-                self.plan_failed.clone(),
+                base_exception_flags(self, diverged),
+                (self.robot_obstacle_gap < tolerance).flatten(1).any(-1).unsqueeze(0),
+                (self.object_obstacle_gap < tolerance).any(-1).unsqueeze(0),
+                self.plan_failed.unsqueeze(0),
             ]
         )
 
@@ -304,31 +306,14 @@ class HighPushEnv:
             "planner_failure": self.plan_failed & done,
             "time_s": self.episode_time_s,
         }
-        if not done.any():
-            return {"episode_end": end, "log": {"Metrics/recent_success_rate": self.recent_success.nanmean()}}
-        outcomes = self.success[done].float()[-RECENT_EPISODES:]
-        slots = (self._recent_next + torch.arange(len(outcomes))) % RECENT_EPISODES
-        self.recent_success[slots] = outcomes
-        self._recent_next = int(slots[-1] + 1) % RECENT_EPISODES
-        log = {f"Reward/{name}": sums[done].mean() for name, sums in self.episode_sums.items()}
-        log["Metrics/success_rate"] = self.success[done].float().mean()
-        log["Metrics/exception_rate"] = self.failed[done].float().mean()
-        log["Metrics/exception_decisions"] = self.exception_decisions[done].mean()
-        log["Metrics/episode_time_s"] = end["time_s"][done].mean()
-        log["Metrics/recent_success_rate"] = self.recent_success.nanmean()
-        return {"episode_end": end, "log": log}
+        return self.outcomes.info(end, self.episode_sums, {"exception_decisions": self.exception_decisions})
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env: poses, subgoal, target, obstacles (corners) and the reference path."""
         return {
-            "object_xy": self.object_xy,
-            "object_z": self.object_z,
-            "object_yaw": self.object_yaw,
-            "robot_xy": self.robot_xy,
-            "robot_yaw": self.robot_yaw,
-            "subgoal_xy": self.subgoal_xy,
+            **pose_frame(self),
             "target_xy": self.target_xy,
-            "obstacles": corners(self.obstacles),
+            "obstacles": self.obstacle_corners,
             "path": self.path,
         }
 

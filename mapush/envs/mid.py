@@ -12,18 +12,23 @@ import numpy as np
 import torch
 
 from mapush.envs import observations as obs_terms
-from mapush.envs.resets import check_agent_count, sample_mid_layout
-from mapush.errors import BadInput
+from mapush.envs.common import (
+    BASE_EXCEPTIONS,
+    EpisodeOutcomes,
+    base_exception_flags,
+    divergence,
+    pose_frame,
+    read_sim_state,
+    validate_push_config,
+)
+from mapush.envs.resets import sample_mid_layout
 from mapush.lowlevel import BACKENDS
 from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
 from mapush.sim.shapes import object_hull
 
-EXCEPTIONS = ("diverged", "robot_collision", "object_tilt", "robot_tilt")
+EXCEPTIONS = BASE_EXCEPTIONS
 """Named exceptions (paper III-C: r_exception); `exception_kind` indexes this tuple, the first that fired wins."""
-
-RECENT_EPISODES = 500
-"""Episodes in the rolling success rate that is logged every step (`Metrics/recent_success_rate`)."""
 
 
 class MidPushEnv:
@@ -53,6 +58,7 @@ class MidPushEnv:
         # the tolerance keeps 0.14 s / 0.02 s = 7.000000000000001 at 7 steps
         self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
         self.action_scale = torch.tensor(level["action_scale"], dtype=torch.float32)
+        self.num_actions = len(self.action_scale)  # (vx, vy, yaw rate)
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
         A = self.num_agents
         self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A  # (A, A-1)
@@ -67,17 +73,10 @@ class MidPushEnv:
         self.exception_kind = torch.full((E,), -1)
         self.recorders = []  # EpisodeRecorder / LiveView (mapush.logging.episodes) watching some envs
         self.episode_sums = {name: torch.zeros(E, A) for name in self.rewards.terms}
-        self.recent_success = torch.full((RECENT_EPISODES,), float("nan"))  # ring buffer of the latest outcomes
-        self._recent_next = 0
+        self.outcomes = EpisodeOutcomes()
         self.reset(np.arange(E))
 
-    @staticmethod
-    def validate(cfg: dict) -> None:
-        """Check a config before anything is built or written: agent count, reward terms, low-level backend."""
-        if cfg["lowlevel"]["name"] not in BACKENDS:
-            raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
-        check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
-        RewardManager(cfg["reward"]["terms"])
+    validate = staticmethod(validate_push_config)
 
     # ----------------------------------------------------------------------------------------------------------
     def reset(self, ids: np.ndarray) -> None:
@@ -95,12 +94,9 @@ class MidPushEnv:
         self.prev_subgoal_distance[t] = self.subgoal_distance[t]
 
     def _read_state(self) -> None:
-        """Copy the simulation state into env attributes (`object_xy`, `robot_xy`, ...; see `BatchSim.read`)."""
-        for name, value in self.sim.read().items():
-            setattr(self, name, value)
+        """The simulation state as env attributes (`read_sim_state`), plus the object-subgoal distance."""
+        read_sim_state(self)
         self.subgoal_distance = torch.linalg.vector_norm(self.object_xy - self.subgoal_xy, dim=-1)
-        # (E, A, A) distances between robot centres; the diagonal is 0 (torch.cdist is ~100x slower at this size)
-        self.robot_distance = torch.linalg.vector_norm(self.robot_xy.unsqueeze(2) - self.robot_xy.unsqueeze(1), dim=-1)
 
     @property
     def episode_time_s(self) -> torch.Tensor:
@@ -109,14 +105,7 @@ class MidPushEnv:
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): poses (E, ...) and the subgoal (E, 2)."""
-        return {
-            "object_xy": self.object_xy,
-            "object_z": self.object_z,
-            "object_yaw": self.object_yaw,
-            "robot_xy": self.robot_xy,
-            "robot_yaw": self.robot_yaw,
-            "subgoal_xy": self.subgoal_xy,
-        }
+        return pose_frame(self)
 
     # ----------------------------------------------------------------------------------------------------------
     def observations(self) -> dict[str, torch.Tensor]:
@@ -141,20 +130,9 @@ class MidPushEnv:
         self._read_state()
         self.episode_step += 1
 
-        level, task = self.cfg["level"], self.cfg["task"]
-        self.success = self.subgoal_distance < level["success_distance"]
-        diverged = torch.zeros(self.num_envs, dtype=torch.bool)
-        diverged[torch.from_numpy(failed)] = True
-        diverged |= ~torch.isfinite(self.object_xy).all(-1) | ~torch.isfinite(self.robot_xy).flatten(1).all(-1)
-        pair = self.robot_distance + torch.eye(self.num_agents) * 1e9
-        exceptions = torch.stack(
-            [
-                diverged,
-                (pair < task["collision_distance"]).flatten(1).any(-1),
-                self.object_tilt > level["object_max_tilt"],
-                (self.robot_tilt > level["robot_max_tilt"]).any(-1),
-            ]
-        )  # (kinds, E) in the order of EXCEPTIONS
+        self.success = self.subgoal_distance < self.cfg["level"]["success_distance"]
+        diverged = divergence(self, failed)
+        exceptions = base_exception_flags(self, diverged)  # (kinds, E) in the order of EXCEPTIONS
         self.exception = exceptions.any(0)
         self.exception_kind = torch.where(self.exception, exceptions.int().argmax(0), -1)
         self.success &= ~self.exception
@@ -182,17 +160,6 @@ class MidPushEnv:
             "exception": self.exception & done,
             "diverged": diverged & done,
             "exception_kind": torch.where(done, self.exception_kind, -1),
-            "time_s": self.episode_step.float() * self.dt,
+            "time_s": self.episode_time_s,
         }
-        if not done.any():
-            return {"episode_end": end, "log": {"Metrics/recent_success_rate": self.recent_success.nanmean()}}
-        outcomes = self.success[done].float()[-RECENT_EPISODES:]
-        slots = (self._recent_next + torch.arange(len(outcomes))) % RECENT_EPISODES
-        self.recent_success[slots] = outcomes
-        self._recent_next = int(slots[-1] + 1) % RECENT_EPISODES
-        log = {f"Reward/{name}": sums[done].mean() for name, sums in self.episode_sums.items()}
-        log["Metrics/success_rate"] = self.success[done].float().mean()
-        log["Metrics/exception_rate"] = self.exception[done].float().mean()
-        log["Metrics/episode_time_s"] = end["time_s"][done].mean()
-        log["Metrics/recent_success_rate"] = self.recent_success.nanmean()
-        return {"episode_end": end, "log": log}
+        return self.outcomes.info(end, self.episode_sums)

@@ -153,7 +153,7 @@ def sample_obstacles(
     level = cfg["level"]
     spec = level["obstacles"]
     n, count = start.shape[0], spec["count"]
-    size = torch.tensor(spec["size"], dtype=torch.float32)
+    size = torch.tensor(spec["size"][:2], dtype=torch.float32)
     half_diag = float(torch.linalg.vector_norm(size)) / 2
     half_room = cfg["sim"]["arena_size"] / 2 - half_diag - 0.1
     keep_start, keep_goal = start_clearance(cfg) + half_diag, goal_clearance(cfg) + half_diag

@@ -47,12 +47,9 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
 
     cfg = {**cfg, "seed": seed, "num_envs": episodes}
     env, runner = build(cfg, None, 0, evaluation=True)
+    watched = list(range(max(min(int(cfg["log"]["eval_episodes"]), episodes), 1)))  # the live view follows env 0
     for recorder in recorders:
-        if isinstance(recorder, EpisodeRecorder):
-            count = min(int(cfg["log"]["eval_episodes"]), episodes)
-            recorder.watch(list(range(count)), env.frame_dt, f"seed {seed}", from_start=True)
-        else:
-            recorder.watch(env.frame_dt, f"seed {seed}")
+        recorder.watch(watched, env.frame_dt, f"seed {seed}", from_start=True)
         env.recorders.append(recorder)
     load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
     policy = runner.get_inference_policy()

@@ -168,7 +168,6 @@ class EpisodeRecorder:
         self.start = np.zeros(len(env_ids), dtype=np.int64)
         self.frames: list[dict[str, np.ndarray]] = []
         self.dt_ns, self.label, self.every_steps, self.steps = round(dt * 1e9), label, every_steps, 0
-        self.repeat = every_steps > 0
 
     def capture(self, env, commands: torch.Tensor, reward: torch.Tensor, parts: dict, done: torch.Tensor) -> None:
         """Called by the env every step, after rewards and before resets."""
@@ -233,13 +232,14 @@ class LiveView:
     def port(self) -> int:
         return self.server.port
 
-    def watch(self, dt: float, label: str) -> None:
-        """Follow env 0 of an env with step `dt` (s)."""
+    def watch(self, env_ids: list[int], dt: float, label: str, from_start: bool = True, every_steps: int = 0) -> None:
+        """Follow the first of `env_ids` of an env with step `dt` (s); the signature is `EpisodeRecorder.watch`'s."""
+        self.env_ids = torch.as_tensor(env_ids[:1], dtype=torch.long)
         self.dt, self.label = dt, label
         self.steps, self.started = 0, time.perf_counter()
 
     def capture(self, env, commands: torch.Tensor, reward: torch.Tensor, parts: dict, done: torch.Tensor) -> None:
-        """Publish env 0's step now, after sleeping until the simulated time has caught up with the clock."""
+        """Publish the watched env's step now, after sleeping until the simulated time catches up with the clock."""
         row = _row(step_rows(env, self.env_ids, commands, reward, parts), 0, self.exception_names)
         self.steps += 1
         ahead = self.steps * self.dt - (time.perf_counter() - self.started)
@@ -248,8 +248,8 @@ class LiveView:
         now = time.time_ns()
         self.channels.log_step(row, now)
         self.returns += row["reward"]
-        if bool(done[0]):
-            self.channels.log_end(row, now, self.episodes, f"{self.label}, env 0", self.returns)
+        if bool(done[self.env_ids[0]]):
+            self.channels.log_end(row, now, self.episodes, f"{self.label}, env {int(self.env_ids[0])}", self.returns)
             self.episodes += 1
             self.returns[:] = 0.0
 

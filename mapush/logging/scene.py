@@ -33,6 +33,8 @@ from foxglove.messages import (
     Vector3,
 )
 
+from mapush.planning.geometry import PARKED
+
 WORLD = "world"
 OBJECT = "object"
 
@@ -68,6 +70,7 @@ class SceneLayout:
     robot_size: tuple[float, float, float]
     num_agents: int
     success_distance: float
+    obstacle_height: float  # m; 0 for levels without obstacles
 
     @classmethod
     def from_config(cls, cfg: dict) -> SceneLayout:
@@ -80,6 +83,7 @@ class SceneLayout:
             robot_size=tuple(float(x) for x in cfg["lowlevel"]["size"]),
             num_agents=int(cfg["task"]["num_agents"]),
             success_distance=float(cfg["level"]["success_distance"]),
+            obstacle_height=float(cfg["level"]["obstacles"]["size"][2]) if "obstacles" in cfg["level"] else 0.0,
         )
 
 
@@ -174,7 +178,8 @@ def scene_update(layout: SceneLayout, frame: dict[str, np.ndarray], t_ns: int) -
             _entity(ts, WORLD, "target", cylinders=[_disc(*frame["target_xy"], layout.success_distance, TARGET)])
         )
     if "obstacles" in frame:
-        entities.append(_entity(ts, WORLD, "obstacles", cubes=_obstacle_cubes(frame["obstacles"])))
+        cubes = _obstacle_cubes(frame["obstacles"], layout.obstacle_height)
+        entities.append(_entity(ts, WORLD, "obstacles", cubes=cubes))
     if "path" in frame and len(frame["path"]) > 1:
         points = [Point3(x=float(x), y=float(y), z=MARKER_HEIGHT) for x, y in frame["path"]]
         line = LinePrimitive(
@@ -184,17 +189,17 @@ def scene_update(layout: SceneLayout, frame: dict[str, np.ndarray], t_ns: int) -
     return SceneUpdate(entities=entities)
 
 
-def _obstacle_cubes(corners: np.ndarray) -> list[CubePrimitive]:
-    """Axis-aligned or rotated rectangular blocks, 1 m tall, from their (K, 4, 2) footprint corners."""
+def _obstacle_cubes(corners: np.ndarray, height: float) -> list[CubePrimitive]:
+    """Rotated rectangular blocks of `height` from their (K, 4, 2) footprint corners; parked ones are skipped."""
     cubes = []
     for quad in corners:
-        if not np.isfinite(quad).all():
-            continue
         centre = quad.mean(0)
+        if not np.isfinite(quad).all() or centre[0] >= PARKED / 2:
+            continue
         edge_a, edge_b = quad[1] - quad[0], quad[2] - quad[1]
         yaw = math.atan2(edge_a[1], edge_a[0])
-        size = Vector3(x=float(np.linalg.norm(edge_a)), y=float(np.linalg.norm(edge_b)), z=1.0)
-        cubes.append(CubePrimitive(pose=_pose(*map(float, centre), 0.5, yaw), size=size, color=OBSTACLE))
+        size = Vector3(x=float(np.linalg.norm(edge_a)), y=float(np.linalg.norm(edge_b)), z=height)
+        cubes.append(CubePrimitive(pose=_pose(*map(float, centre), height / 2, yaw), size=size, color=OBSTACLE))
     return cubes
 
 

@@ -21,6 +21,11 @@ def parked(n: int, count: int, size: float) -> torch.Tensor:
     return rows
 
 
+def present(obstacles):
+    """Which obstacle rows (..., 5) (tensor or array) are on the map, i.e. not parked."""
+    return obstacles[..., 0] < PARKED / 2
+
+
 def corners(obstacles: torch.Tensor) -> torch.Tensor:
     """Footprint corners, counter-clockwise: (..., 5) -> (..., 4, 2)."""
     c, s = torch.cos(obstacles[..., 2]), torch.sin(obstacles[..., 2])

@@ -38,7 +38,7 @@ class AgentRowsVecEnv(VecEnv):
         self.env = env
         self.num_agents = env.policy_agents  # policy rows per env: every robot (mid), one per team (high)
         self.num_envs = env.num_envs * self.num_agents
-        self.num_actions = len(env.action_scale)  # (vx, vy, yaw rate) for the mid level, 2 for the high level
+        self.num_actions = env.num_actions  # per row: (vx, vy, yaw rate) for the mid level, 2 for the high level
         self.max_episode_length = env.max_episode_length
         self.device = device
         self.cfg = env.cfg

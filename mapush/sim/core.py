@@ -27,7 +27,7 @@ class BatchSim:
     """
 
     def __init__(
-        self, sim_cfg: dict, task_cfg: dict, lowlevel, num_envs: int, obstacles: int = 0, obstacle_size=(1.0, 1.0)
+        self, sim_cfg: dict, task_cfg: dict, lowlevel, num_envs: int, obstacles: int = 0, obstacle_size=(1.0, 1.0, 1.0)
     ):
         self.spec = build_scene(sim_cfg, task_cfg, lowlevel, obstacles, obstacle_size)
         self.model = self.spec.compile()
@@ -48,6 +48,7 @@ class BatchSim:
             [int(self.model.body(OBSTACLE_BODY.format(k)).mocapid[0]) for k in range(obstacles)], dtype=np.int64
         )
         self.mocap_quat = self.batch.bind("mocap_quat")
+        self.obstacle_height = float(obstacle_size[2])
         self.object_geoms = np.flatnonzero(self.model.geom_bodyid == self.model.body(OBJECT_BODY).id)
         self.object_rest_z = float(self.model.body(OBJECT_BODY).pos[2])
         self.geom_friction = self.batch.expand("geom_friction")
@@ -128,7 +129,7 @@ class BatchSim:
         rows = obstacles.numpy().astype(np.float64)
         idx = np.ix_(ids, self.obstacle_mocap)
         pos = np.zeros((len(ids), len(self.obstacle_mocap), 3))
-        pos[..., :2], pos[..., 2] = rows[..., :2], 0.5
+        pos[..., :2], pos[..., 2] = rows[..., :2], self.obstacle_height / 2
         quat = np.zeros((len(ids), len(self.obstacle_mocap), 4))
         quat[..., 0], quat[..., 3] = np.cos(rows[..., 2] / 2), np.sin(rows[..., 2] / 2)
         self.mocap_pos[idx] = pos

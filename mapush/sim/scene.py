@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import mujoco
 
+from mapush.planning.geometry import PARKED
+
 OBJECT_BODY = "object"
 OBJECT_JOINT = "object_root"
 SUBGOAL_BODY = "subgoal"
@@ -19,7 +21,9 @@ def robot_prefixes(num_agents: int) -> list[str]:
     return [ROBOT_PREFIX.format(i) for i in range(num_agents)]
 
 
-def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel, obstacles: int = 0, obstacle_size=(1.0, 1.0)) -> mujoco.MjSpec:
+def build_scene(
+    sim_cfg: dict, task_cfg: dict, lowlevel, obstacles: int = 0, obstacle_size=(1.0, 1.0, 1.0)
+) -> mujoco.MjSpec:
     """The pushing scene of one env, as an MjSpec (compile it, or edit it first).
 
     Args:
@@ -27,7 +31,7 @@ def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel, obstacles: int = 0, obs
         task_cfg: the task config (object parts, agent count).
         lowlevel: a low-level backend; its `robot_spec()` is attached once per agent.
         obstacles: number of obstacle blocks (the high level), mocap bodies placed per env at reset.
-        obstacle_size: their footprint (x, y) in m; they are 1 m tall.
+        obstacle_size: their footprint x, y and height, m.
     """
     spec = mujoco.MjSpec()
     spec.modelname = f"mapush_{task_cfg['name']}"
@@ -57,11 +61,12 @@ def build_scene(sim_cfg: dict, task_cfg: dict, lowlevel, obstacles: int = 0, obs
         rgba=[1, 0.1, 0.1, 0.4],
     )
     for k in range(obstacles):
-        block = world.add_body(name=OBSTACLE_BODY.format(k), mocap=True, pos=[1000.0 + 3 * k, 1000.0, 0.5])
+        sx, sy, sz = obstacle_size
+        block = world.add_body(name=OBSTACLE_BODY.format(k), mocap=True, pos=[PARKED + 3 * k, PARKED, sz / 2])
         block.add_geom(
             name=f"obstacle{k}_box",
             type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[obstacle_size[0] / 2, obstacle_size[1] / 2, 0.5],
+            size=[sx / 2, sy / 2, sz / 2],
             contype=OBJECT_BITS,
             conaffinity=OBJECT_BITS,
             rgba=[0.35, 0.35, 0.4, 1],
