@@ -1,4 +1,7 @@
-"""The `mapush` command line: train, eval, bench, logs, plot. Every command takes Hydra overrides (`key=value`)."""
+"""The `mapush` command line: train, eval, bench, plan, sweep, ablate, scale, tables, logs, plot.
+
+Every command takes Hydra overrides (`key=value`).
+"""
 
 from __future__ import annotations
 
@@ -128,6 +131,66 @@ def plan(
         print(json_path)
     if png:
         print(planning.draw(cfg, record, png))
+
+
+@app.command(context_settings=PASS_THROUGH)
+def sweep(ctx: typer.Context) -> None:
+    """Run a Hydra multirun of sweep jobs: `method=ours,sa task=cuboid,tblock seed=0,1 launcher=local|slurm|ray`.
+
+    Axes not given come from the experiment (`experiment=main|ocb_ablation|scale`, `budget=quick|paper`). Each job
+    trains its method's stages and evaluates them into <sweep dir>/<job>/result.json; finished jobs are skipped
+    and cut ones resumed when the same command runs again.
+    """
+    _sweep(list(ctx.args))
+
+
+@app.command(context_settings=PASS_THROUGH)
+def ablate(
+    ctx: typer.Context,
+    what: str = typer.Argument(..., help="The ablation: ocb (the paper's OCB ablation)."),
+) -> None:
+    """The paper's OCB ablation: with and without OCB, timeouts 20 s and 40 s, several seeds (a sweep)."""
+    if what != "ocb":
+        raise BadInput(f"unknown ablation {what!r}; valid: ocb")
+    _sweep(["experiment=ocb_ablation", *ctx.args])
+
+
+@app.command(context_settings=PASS_THROUGH)
+def scale(
+    ctx: typer.Context,
+    agents: str = typer.Option("1,2,3,4", "--agents", help="Comma-separated robot counts."),
+) -> None:
+    """The cylinder scalability study: the whole hierarchy with each robot count, several seeds (a sweep)."""
+    counts = _int_list(agents, "--agents")
+    if not counts or min(counts) < 1:
+        raise BadInput(f"--agents {agents!r} must be robot counts >= 1, e.g. 1,2,3,4")
+    _sweep(["experiment=scale", f"agents={','.join(map(str, counts))}", *ctx.args])
+
+
+def _sweep(overrides: list[str]) -> None:
+    from mapush.experiments.sweep import report, run_sweep
+
+    sweep_dir, finished, failed = run_sweep(overrides)
+    code = report(sweep_dir, finished, failed)
+    if code:
+        raise typer.Exit(code)
+
+
+@app.command()
+def tables(
+    runs: Path = typer.Option(Path("runs"), "--runs", help="Where to look for sweep jobs (result.json files)."),
+    out: Path = typer.Option(Path("results"), "--out", help="Where to write the tables."),
+) -> None:
+    """Build the paper's tables (Markdown, LaTeX, CSV, a JSON sidecar per table) and the scalability plot."""
+    from mapush.report.tables import write_tables
+
+    if not runs.is_dir():
+        raise BadInput(f"--runs {str(runs)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
+    for table in write_tables(runs, out):
+        filled = sum(bool(c.values) for _, cells in table.rows for c in cells)
+        total = sum(len(cells) for _, cells in table.rows)
+        missing = f", missing cells listed in {table.name}.md" if table.missing else ""
+        print(f"{out / table.name}.{{md,tex,csv,json}}: {filled}/{total} cells filled{missing}")
 
 
 logs = typer.Typer(no_args_is_help=True, help="Inspect and repair MCAP logs (metrics.mcap, episodes.mcap).")

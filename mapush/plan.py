@@ -28,8 +28,9 @@ def random_map(cfg: dict, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 def make_planner(cfg: dict) -> ObjectPlanner:
-    """The configured OMPL planner for the config's task and room."""
-    return ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], object_radius(cfg["task"]["object"]))
+    """The configured OMPL planner for the config's task and room, seeded with the config's seed."""
+    radius = object_radius(cfg["task"]["object"])
+    return ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius, seed=int(cfg["seed"]))
 
 
 def plan_map(cfg: dict, seed: int, planner: ObjectPlanner) -> tuple[dict, PlanResult]:

@@ -19,7 +19,7 @@ from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import repair_in_place
 from mapush.logging.metrics import next_free_path
 from mapush.logging.scene import SceneLayout
-from mapush.planning.planner import ObjectPlanner
+from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.runner import (
     MapushRunner,
@@ -33,7 +33,6 @@ from mapush.rl.runner import (
     train_cfg_for,
 )
 from mapush.rl.vecenv import AgentRowsVecEnv
-from mapush.sim.shapes import object_radius
 
 TRAIN_EPISODES = "train_episodes.mcap"
 
@@ -62,8 +61,7 @@ def make_env(cfg: dict, evaluation: bool = False):
     mid = load_mid_policy(cfg["mid"], cfg["task"])
     planner = None
     if evaluation and cfg["level"]["path"]["plan_at_eval"]:
-        radius = object_radius(cfg["task"]["object"])
-        planner = ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius)
+        planner = make_planner(cfg)
     return HighPushEnv(cfg, mid, planner=planner)
 
 
@@ -117,6 +115,21 @@ def resume(run_dir: Path, iterations: int | None) -> Path:
     _repair_cut_logs(Path(run_dir))
     _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1])
     return Path(run_dir)
+
+
+def export_finished(run_dir: Path) -> Path:
+    """Export the policy of a run whose last checkpoint holds every iteration (cut while exporting)."""
+    cfg = to_plain(load_run_config(run_dir))
+    _env, runner = build(cfg, None, int(cfg["train"]["iterations"]))
+    load_checkpoint(runner, checkpoints(run_dir)[-1], obs_width(runner), "the run's config")
+    export_policy(runner, run_dir)
+    return Path(run_dir)
+
+
+def is_complete(run_dir: Path) -> bool:
+    """Whether a run's last checkpoint holds all of its `train.iterations`."""
+    found = checkpoints(run_dir)
+    return bool(found) and checkpoint_iteration(found[-1]) + 1 >= int(load_run_config(run_dir).train.iterations)
 
 
 def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:

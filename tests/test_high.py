@@ -131,3 +131,21 @@ def test_a_high_level_run_is_not_a_mid_level(cli, smoke_run, tmp_path):
     proc = cli("train", "level=high", f"mid={high_run}", "debug=smoke", f"train.run_root={tmp_path}")
     assert proc.returncode == 2
     assert "is a high-level run; valid: a mid-level run dir" in proc.stderr
+
+
+def test_a_success_pays_the_held_task_terms_for_the_decisions_left(high_cfg, mid):
+    env = HighPushEnv(high_cfg, mid, num_envs=2)  # 8 decisions per episode, gamma 0.99
+    env.episode_step[:] = torch.tensor([3, 8])  # after the 3rd and the last decision
+    factor = env._hold_factor(torch.tensor([True, True]))
+    gamma = high_cfg["algo"]["algorithm"]["gamma"]
+    assert factor[0].item() == pytest.approx(sum(gamma**k for k in range(6)), rel=1e-5)  # decisions 3..8
+    assert factor[1].item() == pytest.approx(1.0)  # none left after this one
+    assert env._hold_factor(torch.tensor([False, False])).tolist() == [1.0, 1.0]
+
+
+def test_an_unknown_held_reward_term_is_bad_input(high_cfg, mid):
+    from mapush.errors import BadInput
+
+    high_cfg["level"]["hold_at_target"] = ["target_reached", "speed"]
+    with pytest.raises(BadInput, match="'speed'.*valid: target_reached"):
+        HighPushEnv(high_cfg, mid, num_envs=1)

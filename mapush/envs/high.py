@@ -112,7 +112,14 @@ class HighPushEnv:
         self.recorders = []
         self.reset(np.arange(E))
 
-    validate = staticmethod(validate_push_config)
+    @staticmethod
+    def validate(cfg: dict) -> None:
+        """Check a high-level config before anything is built: the push checks plus the held reward terms."""
+        validate_push_config(cfg)
+        terms = cfg["reward"]["terms"]
+        for name in cfg["level"]["hold_at_target"]:
+            if name not in terms:
+                raise BadInput(f"level.hold_at_target names {name!r}, not a reward term; valid: {', '.join(terms)}")
 
     @property
     def episode_time_s(self) -> torch.Tensor:
@@ -272,6 +279,9 @@ class HighPushEnv:
         terminated = self.success | self.failed
         truncated = (self.episode_step >= self.max_episode_length) & ~terminated
         reward, parts = self.rewards.compute(self)
+        if level["hold_at_target"]:
+            extra = self._hold_factor(self.success).unsqueeze(-1) - 1.0
+            reward = reward + extra * sum(parts[name] for name in level["hold_at_target"])
         reward = torch.nan_to_num(reward, 0.0, 0.0, 0.0)
         for name, value in parts.items():
             self.episode_sums[name] += torch.nan_to_num(value, 0.0, 0.0, 0.0)
@@ -280,6 +290,19 @@ class HighPushEnv:
         info = self._episode_info(done, diverged_any)
         self.reset(done.nonzero().flatten().numpy())
         return self.observations(), reward, terminated, truncated, info
+
+    def _hold_factor(self, success: torch.Tensor) -> torch.Tensor:
+        """Per-env multiplier (E,): sum_{k<R} gamma^k for envs that succeeded, R the decisions left; else 1.
+
+        Success ends the episode, but the task terms are positive every decision, so a plain ending would forfeit
+        them for the decisions up to the timeout and teach the policy to dawdle short of the target. The terms
+        named in `level.hold_at_target` are paid as if the object stayed at the target until the timeout: once
+        for each remaining decision, discounted with the algorithm's gamma. Penalties are paid once.
+        """
+        gamma = float(self.cfg["algo"]["algorithm"]["gamma"])
+        left = (self.max_episode_length - self.episode_step + 1).clamp(min=1).float()
+        factor = (1.0 - gamma**left) / (1.0 - gamma) if gamma < 1.0 else left
+        return torch.where(success, factor, torch.ones_like(factor))
 
     def _done_after_decision(self, finished: torch.Tensor) -> torch.Tensor:
         return finished | (self.episode_step + 1 >= self.max_episode_length)

@@ -86,13 +86,19 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
 
 
 def evaluate(
-    target: Path, episodes: int | None, seeds: list[int] | None, overrides: list[str] = (), live: bool = False
+    target: Path,
+    episodes: int | None,
+    seeds: list[int] | None,
+    overrides: list[str] = (),
+    live: bool = False,
+    name: str = "",
 ) -> Path:
     """Evaluate a run dir or checkpoint over seeds; writes and returns `eval.json` in the run dir.
 
     `overrides` (e.g. `task.num_agents=3`, `lowlevel=tracker`) change the run's config for this evaluation. The
     first `log.eval_episodes` episodes of each seed go to `episodes.mcap`; `live` also streams env 0 to Foxglove
-    at real time on 127.0.0.1:`log.live_port`.
+    at real time on 127.0.0.1:`log.live_port`. A `name` keeps several evaluations of one run apart:
+    `eval_<name>.json` and `episodes_<name>.mcap`.
     """
     from mapush.train import exit_on_sigterm
 
@@ -101,7 +107,8 @@ def evaluate(
     episodes = episodes or cfg["eval"]["episodes"]
     seeds = seeds if seeds else list(cfg["eval"]["seeds"])
     exit_on_sigterm()
-    recorders = _eval_recorders(cfg, run_dir, live)
+    suffix = f"_{name}" if name else ""
+    recorders = _eval_recorders(cfg, run_dir / f"{Path(EPISODES).stem}{suffix}.mcap", live)
     try:
         per_seed = [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
     finally:
@@ -122,12 +129,12 @@ def evaluate(
         "seeds": seeds,
         "per_seed": per_seed,
     }
-    out = run_dir / "eval.json"
+    out = run_dir / f"eval{suffix}.json"
     out.write_text(json.dumps(result, indent=2) + "\n")
     return out
 
 
-def _eval_recorders(cfg: dict, run_dir: Path, live: bool) -> list:
+def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
     """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
     from mapush.train import env_class
 
@@ -135,7 +142,7 @@ def _eval_recorders(cfg: dict, run_dir: Path, live: bool) -> list:
     exceptions = env_class(cfg).EXCEPTIONS
     recorders: list = []
     if int(cfg["log"]["eval_episodes"]) > 0:
-        recorders.append(EpisodeRecorder(run_dir / EPISODES, layout, terms, exceptions))
+        recorders.append(EpisodeRecorder(episodes_path, layout, terms, exceptions))
     if live:
         view = LiveView(layout, terms, exceptions, int(cfg["log"]["live_port"]))
         print(f"live view: open Foxglove on ws://127.0.0.1:{view.port}", file=sys.stderr, flush=True)

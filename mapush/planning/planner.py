@@ -55,9 +55,16 @@ class ObjectPlanner:
         planner_cfg: `name`, `time_limit_s`, `range_m`, `margin_m`, `resolution_m`, `simplify`.
         arena_size: room side, m (the room is centred on the origin).
         object_radius: circumscribed radius of the object's footprint, m.
+        seed: seeds OMPL's process-wide RNG seed generator, so that a sequence of plans repeats (the planner's
+            samplers draw their seeds from it when first solving). None leaves OMPL's random seed.
     """
 
-    def __init__(self, planner_cfg: dict, arena_size: float, object_radius: float):
+    def __init__(self, planner_cfg: dict, arena_size: float, object_radius: float, seed: int | None = None):
+        if seed is not None:
+            # OMPL logs an error when the generator has already handed out seeds (an earlier planner in this
+            # process); reseeding still makes the new planner's sampling repeat, so silence that message
+            ou.setLogLevel(ou.LogLevel.LOG_NONE)
+            ou.RNG.setSeed(seed % (2**31 - 1) + 1)  # OMPL seeds are positive
         ou.setLogLevel(ou.LogLevel.LOG_ERROR)  # OMPL prints Info/Debug to stdout otherwise
         self.cfg = planner_cfg
         self.radius = object_radius

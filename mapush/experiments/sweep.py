@@ -1,0 +1,192 @@
+"""`mapush sweep`, `ablate` and `scale`: Hydra multiruns of sweep jobs (`pipeline.run_job`) through a launcher.
+
+The sweep's axes come from the experiment file (`sweep:` lists and the budget's seeds) unless given on the
+command line as comma lists. Every job gets a fixed dir named by its overrides under
+`<sweep_root>/<experiment>_<budget>/`, so running the same command again skips the finished jobs and resumes the
+cut ones. A job that fails writes `failed.txt` and lets the others run; the failures are listed at the end.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import sys
+import traceback
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig, OmegaConf
+
+from mapush.config import CONF_DIR, compose_config, group_options
+from mapush.errors import BadInput
+from mapush.experiments.pipeline import RESULT, budget_of, run_job, stage_plan
+
+SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
+SWEEP_KEYS = (*SWEEP_GROUPS, "seed", "agents", "budget", "overrides", "sweep_root", "sweep_name", "job_threads")
+"""Keys of conf/sweep.yaml; any other override (e.g. `debug=smoke`, `algo.entropy_coef=0.01`) goes to every stage."""
+FAILED = "failed.txt"
+LAUNCHER_PLUGINS = {"ray": "hydra_plugins.hydra_ray_launcher", "slurm": "hydra_plugins.hydra_submitit_launcher"}
+"""Launchers whose plugin is an optional install: the module to import, and the message when it is missing."""
+
+if not OmegaConf.has_resolver("cores"):
+    OmegaConf.register_new_resolver("cores", lambda: os.cpu_count() or 1)
+
+
+@hydra.main(config_path=str(CONF_DIR), config_name="sweep", version_base="1.3")
+def job(cfg: DictConfig) -> str:
+    """One sweep job in its Hydra output dir; never raises, so that a failure leaves the other jobs running."""
+    job_dir = Path(HydraConfig.get().runtime.output_dir)
+    (job_dir / FAILED).unlink(missing_ok=True)
+    try:
+        run_job(cfg, job_dir, job_threads(cfg))
+        return "ok"
+    except BaseException as err:  # the job reports and returns; KeyboardInterrupt still stops the sweep
+        (job_dir / FAILED).write_text("".join(traceback.format_exception(err)))
+        if isinstance(err, KeyboardInterrupt):
+            raise
+        return f"failed: {err}"
+
+
+def job_threads(cfg: DictConfig) -> int:
+    """Threads of one job: `job_threads`, or the cores shared among the local launcher's concurrent jobs."""
+    if int(cfg.job_threads) > 0:
+        return int(cfg.job_threads)
+    launcher = HydraConfig.get().launcher
+    concurrent = int(launcher.get("n_jobs", 1) or 1) if "n_jobs" in launcher else 1
+    return max(1, (os.cpu_count() or 1) // max(1, concurrent))
+
+
+def sweep_overrides(overrides: list[str]) -> list[str]:
+    """The command line overrides plus the experiment's axes that the user did not give (as comma lists).
+
+    Overrides that are not sweep keys are passed to every stage (`overrides=[...]`). Checked before anything
+    launches: group names (method, experiment, launcher), the budget, and that each job's stages compose (tasks,
+    agent counts, stage overrides).
+    """
+    stage = [o for o in overrides if not _is_sweep_key(o)]
+    overrides = [o for o in overrides if _is_sweep_key(o)]
+    if stage:
+        if any(o.startswith("overrides=") for o in overrides):
+            raise BadInput(f"give stage overrides either as overrides=[...] or bare, not both: {' '.join(stage)}")
+        overrides.append("overrides=[" + ",".join(repr(o) for o in stage) + "]")
+        if not any(o.startswith("sweep_name=") for o in overrides):  # keep them apart from the plain sweep
+            tag = re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(stage)).strip("-")
+            overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{tag}")
+    given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
+    for group in SWEEP_GROUPS:
+        for value in _values(given.get(group)):
+            if value not in group_options(group):
+                raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(group_options(group))}")
+    launcher = given.get("launcher", "local")
+    _check_launcher_plugin(launcher)
+    experiment = OmegaConf.load(CONF_DIR / "experiment" / f"{given.get('experiment', 'main')}.yaml")
+    budget_name = given.get("budget", "quick")
+    budget = budget_of(OmegaConf.create({"experiment": experiment, "budget": budget_name}))
+    axes = {**{k: list(v) for k, v in experiment.sweep.items()}, "seed": list(budget.seeds)}
+    full = list(overrides)
+    for key, values in axes.items():
+        if key not in given:
+            full.append(f"{key}={','.join(str(v) for v in values)}")
+    _check_jobs(full)
+    return full
+
+
+def _is_sweep_key(override: str) -> bool:
+    key = override.lstrip("+~").partition("=")[0].split(".")[0]
+    return key in SWEEP_KEYS or key == "hydra"
+
+
+def _values(value: str | None) -> list[str]:
+    return [v for v in value.split(",")] if value else []
+
+
+def _check_launcher_plugin(launcher: str) -> None:
+    module = LAUNCHER_PLUGINS.get(launcher)
+    if module is None:
+        return
+    try:
+        __import__(module)
+    except ImportError:
+        extra = "ray" if launcher == "ray" else "the default install"
+        raise BadInput(f"launcher={launcher} needs {module.split('.')[-1]} ({extra}: pip install -e .[ray])") from None
+
+
+def _check_jobs(overrides: list[str]) -> None:
+    """Compose every job's stages (without training) so that a bad method, task or agent count fails now."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    axes = {}
+    for o in overrides:
+        key, _, value = o.partition("=")
+        axes[key] = value.split(",") if "," in value and not value.startswith("[") else [value]
+    combos: list[list[str]] = [[]]
+    for key, values in axes.items():
+        if key in ("launcher",) or key.startswith("hydra"):
+            continue
+        combos = [[*c, f"{key}={v}"] for c in combos for v in values]
+    checked: set[tuple[str, ...]] = set()
+    for combo in combos:
+        GlobalHydra.instance().clear()
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            try:
+                cfg = compose(config_name="sweep", overrides=[c for c in combo if not c.startswith("seed=")])
+            except Exception as err:
+                raise BadInput(f"bad sweep override: {str(err).strip().splitlines()[0]}") from None
+        for _, stage_overrides in stage_plan(cfg):
+            key = tuple(o for o in stage_overrides if "@" not in o)
+            if key in checked:
+                continue
+            checked.add(key)
+            stage = compose_config(list(key))
+            from mapush.train import env_class
+
+            plain = OmegaConf.to_container(stage, resolve=True)
+            env_class(plain).validate(plain)
+
+
+def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:
+    """Launch the multirun; returns the sweep dir, the finished job dirs and the failed job dirs."""
+    full = sweep_overrides(overrides)
+    argv = sys.argv
+    sys.argv = [argv[0], "--multirun", *full]
+    try:
+        job()
+    except SystemExit as err:  # hydra exits on its own errors
+        if err.code:
+            raise BadInput(f"the sweep did not launch (hydra exit {err.code}); see the message above") from None
+    finally:
+        sys.argv = argv
+    sweep_dir = _sweep_dir(full)
+    finished = sorted(p.parent for p in sweep_dir.glob(f"*/{RESULT}"))
+    failed = sorted(p.parent for p in sweep_dir.glob(f"*/{FAILED}"))
+    return sweep_dir, finished, failed
+
+
+def _sweep_dir(overrides: list[str]) -> Path:
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    single = [o.split(",")[0] if "," in o and "[" not in o else o for o in overrides]
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(config_name="sweep", overrides=single, return_hydra_config=True)
+    return Path(cfg.hydra.sweep.dir)
+
+
+def report(sweep_dir: Path, finished: list[Path], failed: list[Path]) -> int:
+    """Print the sweep's outcome; returns the exit code (1 when a job failed)."""
+    print(f"sweep {sweep_dir}: {len(finished)} jobs finished, {len(failed)} failed")
+    for path in finished:
+        result = json.loads((path / RESULT).read_text())
+        cells = ", ".join(
+            f"{name} S.R. {100 * e['success_rate']:.1f}% C.T. {e['completion_time']:.3f}"
+            for name, e in result["evals"].items()
+        )
+        print(f"  {path.name}: {cells}")
+    for path in failed:
+        last = (path / FAILED).read_text().strip().splitlines()[-1]
+        print(f"  FAILED {path.name}: {last} (traceback in {path / FAILED})")
+    return 1 if failed else 0

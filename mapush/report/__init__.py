@@ -1,0 +1,1 @@
+"""Tables and plots of the paper's experiments, generated from the sweep jobs under runs/."""

@@ -1,0 +1,230 @@
+"""The paper's experiments as commands: method configs, sweeps through Hydra launchers, resuming, tables."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import pytest
+
+from mapush.config import group_options
+from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
+from mapush.report import tables
+
+SMOKE = ["budget=smoke", "debug=smoke"]
+
+
+def _sweep(cli, tmp_path, *args):
+    return cli("sweep", *SMOKE, f"sweep_root={tmp_path / 'sweeps'}", *args)
+
+
+def _results(root: Path) -> dict[str, dict]:
+    return {p.parent.name: json.loads(p.read_text()) for p in root.glob(f"**/{RESULT}")}
+
+
+def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cli, tmp_path):
+    methods = group_options("method")
+    proc = _sweep(cli, tmp_path, "experiment=main", f"method={','.join(methods)}", "task=cuboid")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    results = _results(tmp_path / "sweeps")
+    assert sorted(r["method"] for r in results.values()) == sorted(methods)
+    for result in results.values():
+        assert set(result["stages"]) == {"mid", "high"}
+        assert result["evals"]["main"]["episodes"] == 2
+        assert 0.0 <= result["evals"]["main"]["success_rate"] <= 1.0
+        for run_dir in map(Path, result["stages"].values()):
+            assert sorted(p.name for p in run_dir.glob("model_*.pt")) == ["model_0.pt"]  # one iteration
+    by_method = {r["method"]: r for r in results.values()}
+    assert by_method["sa"]["num_agents"] == 1 and by_method["ours"]["num_agents"] == 2
+    high_cfg = (Path(by_method["ours"]["stages"]["high"]) / "config.yaml").read_text()
+    assert f"mid: {by_method['ours']['stages']['mid']}" in high_cfg  # the high level sits on this job's mid run
+    no_ocb_mid = (Path(by_method["ours_no_ocb"]["stages"]["mid"]) / "config.yaml").read_text()
+    assert "ocb: null" in no_ocb_mid
+
+
+@pytest.mark.parametrize("launcher", ["local", "submitit_local"])
+def test_a_2_job_sweep_runs_on_the_launcher_and_lists_its_results(cli, tmp_path, launcher):
+    proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", f"launcher={launcher}")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "2 jobs finished, 0 failed" in proc.stdout
+    results = _results(tmp_path / "sweeps")
+    assert sorted(r["method"] for r in results.values()) == ["ours", "ours_no_ocb"]
+    for result in results.values():
+        assert set(result["evals"]) == {"t20", "t40"}
+        assert result["evals"]["t20"]["timeout_s"] == 20.0 and result["evals"]["t40"]["timeout_s"] == 40.0
+        assert result["variant"] == "smoke_debug-smoke"
+    if launcher == "submitit_local":
+        assert list((tmp_path / "sweeps").glob("*/.submitit"))
+
+
+def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
+    three = "experiment.budgets.smoke.stages.mid.env_steps=96"  # 3 iterations of 4 envs x 8 steps
+    assert _sweep(cli, tmp_path, "experiment=ocb_ablation", three).returncode == 0
+    jobs = {p.parent.name: p.parent for p in (tmp_path / "sweeps").glob(f"**/{RESULT}")}
+    finished, cut = sorted(jobs)
+    kept = (jobs[finished] / RESULT).read_text()
+    # cut the other job after its second iteration's checkpoint: no last checkpoint, policy or result
+    mid_run = next(p.parent for p in (jobs[cut] / "mid").glob("**/config.yaml"))
+    for name in (RESULT, "mid_run/model_2.pt", "mid_run/policy.pt"):
+        (jobs[cut] / name if name == RESULT else mid_run / name.split("/")[1]).unlink()
+    proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", three)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert (jobs[finished] / RESULT).read_text() == kept  # not run again
+    assert (mid_run / "model_2.pt").is_file() and (mid_run / "policy.pt").is_file()  # resumed in the same run dir
+    assert [p.parent for p in (jobs[cut] / "mid").glob("**/config.yaml")] == [mid_run]
+    assert json.loads((jobs[cut] / RESULT).read_text())["stages"]["mid"] == str(mid_run)
+    assert "Learning iteration 2/3" in (mid_run / "train.log").read_text()
+
+
+def test_a_failed_job_does_not_stop_the_others_and_is_listed(cli, tmp_path):
+    # a value that composes and passes the checks but breaks PPO when training starts: both jobs fail
+    proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", "method=ours,ours_no_ocb", "algo.algorithm.gamma=abc")
+    assert proc.returncode == 1
+    assert "0 jobs finished, 2 failed" in proc.stdout and "FAILED" in proc.stdout
+    assert len(list((tmp_path / "sweeps").glob("**/failed.txt"))) == 2
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["method=ours,nope"], "nope"),
+        (["launcher=moon"], "moon"),
+        (["experiment=table9"], "table9"),
+        (["budget=huge"], "huge"),
+        (["task=sphere"], "sphere"),
+    ],
+)
+def test_a_bad_sweep_fails_before_launching_anything(cli, tmp_path, args, named):
+    proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", *args)
+    assert proc.returncode == 2
+    assert named in proc.stderr and "valid" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "sweeps").exists()
+
+
+def test_scale_rejects_an_agent_count_the_task_cannot_hold(cli, tmp_path):
+    proc = cli("scale", "--agents", "1,40", *SMOKE, f"sweep_root={tmp_path / 'sweeps'}")
+    assert proc.returncode == 2
+    assert "num_agents=40" in proc.stderr and "valid" in proc.stderr
+    assert not (tmp_path / "sweeps").exists()
+
+
+def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for):
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from mapush.config import CONF_DIR
+
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(config_name="sweep", overrides=["experiment=ocb_ablation", "method=sa", "task=ocb_cuboid"])
+    plan = stage_plan(cfg)
+    assert [name for name, _ in plan] == ["mid"]  # the ablation evaluates the mid level
+    assert plan[0][1][:2] == ["task.num_agents=1", "level=mid"]
+    assert "num_envs=200" in plan[0][1]
+    # env-steps become iterations: 6e6 / (200 envs x 24 steps) = 1250
+    assert iterations_for(cfg_for("num_envs=200"), 6.0e6) == 1250
+    # a high-level iteration of 64 envs x 32 decisions x 25 control steps
+    assert iterations_for(cfg_for("level=high", "num_envs=64"), 2.0e6) == 40
+
+
+# ---------------------------------------------------------------------------------------------------------------
+def _fixture_result(root: Path, table: str, method: str, task: str, seed: int, evals: dict, agents: int = 2) -> None:
+    job = root / f"{table}_quick" / f"method={method},seed={seed},task={task},agents={agents}"
+    job.mkdir(parents=True)
+    result = {
+        "table": table,
+        "variant": "quick",
+        "method": method,
+        "task": task,
+        "num_agents": agents,
+        "seed": seed,
+        "evals": {
+            name: {"success_rate": sr, "completion_time": ct, "completion_time_s": cts}
+            for name, (sr, ct, cts) in evals.items()
+        },
+    }
+    (job / RESULT).write_text(json.dumps(result))
+
+
+@pytest.fixture
+def fixture_tables(tmp_path):
+    runs = tmp_path / "runs"
+    # main: ours on the cuboid over 2 seeds; SA on the cylinder over 1 seed; everything else missing
+    _fixture_result(runs, "main", "ours", "cuboid", 0, {"main": (0.80, 0.60, 96.0)})
+    _fixture_result(runs, "main", "ours", "cuboid", 1, {"main": (0.70, 0.70, 112.0)})
+    _fixture_result(runs, "main", "sa", "cylinder", 0, {"main": (0.10, 0.95, 152.0)}, agents=1)
+    # OCB ablation: ours over 2 seeds, the no-OCB variant never ran
+    for seed, (sr20, s20, sr40, s40) in enumerate([(0.5, 15.0, 0.7, 22.0), (0.6, 14.0, 0.8, 20.0)]):
+        evals = {"t20": (sr20, s20 / 20, s20), "t40": (sr40, s40 / 40, s40)}
+        _fixture_result(runs, "ocb_ablation", "ours", "ocb_cuboid", seed, evals)
+    # scale: 1 and 3 robots
+    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.2, 0.9, 0.0)}, agents=1)
+    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0)}, agents=3)
+    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0)}, agents=3)
+    return runs
+
+
+def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(cli, tmp_path, fixture_tables):
+    proc = cli("tables", "--runs", fixture_tables, "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    out = tmp_path / "out"
+    assert "main_quick.{md,tex,csv,json}: 4/36 cells filled" in proc.stdout
+    assert "scale_quick.{md,tex,csv,json}: 4/8 cells filled" in proc.stdout
+
+    md = (out / "main_quick.md").read_text()
+    # ours, cuboid: S.R. 80 % and 70 % -> 75.0 +- 5.0; C.T. 0.60 and 0.70 -> 0.65 +- 0.05; paper 77.5 +- 3.0, 0.66
+    assert "| Cuboid | S.R. (%) \u2191 |" in md
+    assert "75.0 \u00b1 5.0 (77.5 \u00b1 3.0)" in md
+    assert "0.65 \u00b1 0.05 (0.66 \u00b1 0.04)" in md
+    assert "10.0 \u00b1 0.0 (0.0 \u00b1 0.0)" in md  # SA on the cylinder, one seed
+    assert "\u2014 (4.5 \u00b1 0.3)" in md  # SA on the cuboid: no job
+    assert "- sa / cuboid / success_rate: no finished job" in md
+
+    tex = (out / "main_quick.tex").read_text()
+    assert "\\toprule" in tex and "\\midrule" in tex and "\\bottomrule" in tex
+    assert "75.0 $\\pm$ 5.0 (77.5 $\\pm$ 3.0)" in tex and "-- (4.5 $\\pm$ 0.3)" in tex
+
+    rows = list(csv.DictReader(io.StringIO((out / "main_quick.csv").read_text())))
+    ours_sr = next(r for r in rows if r["row"] == "Cuboid / S.R. (%) \u2191" and r["column"] == "Ours")
+    assert float(ours_sr["mean"]) == pytest.approx(75.0) and float(ours_sr["std"]) == pytest.approx(5.0)
+    assert ours_sr["seeds"] == "2" and float(ours_sr["paper_mean"]) == 77.5
+    assert len(ours_sr["sources"].split(";")) == 2
+    empty = next(r for r in rows if r["row"] == "Cuboid / S.R. (%) \u2191" and r["column"] == "SA")
+    assert empty["mean"] == "" and empty["seeds"] == "0"
+
+    side = json.loads((out / "main_quick.json").read_text())
+    cell = next(c for c in side["cells"] if c["row"][0] == "Cuboid" and c["column"] == "Ours" and "S.R." in c["row"][1])
+    assert all(Path(s).is_dir() for s in cell["sources"]) and len(cell["sources"]) == 2
+
+    ocb = (out / "ocb_ablation_quick.md").read_text()
+    # S.R. at 20 s: 50 % and 60 % -> 55.0 +- 5.0; C.T. at 40 s: 22 s and 20 s -> 21.0 +- 1.0
+    assert "| Ours | 55.0 \u00b1 5.0 (57.0 \u00b1 6.1) | 14.5 \u00b1 0.5 (14.9 \u00b1 0.8) |" in ocb
+    assert "21.0 \u00b1 1.0 (22.5 \u00b1 2.4)" in ocb
+    assert "| Ours w/o OCB | \u2014 (13.0 \u00b1 1.2) |" in ocb
+
+    scale = (out / "scale_quick.md").read_text()
+    assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 |" in scale
+    assert "| 1 | 20.0 \u00b1 0.0 | 0.90 \u00b1 0.00 |" in scale
+    assert "- 2 robots: no finished job" in scale
+    assert (out / "scale_quick.png").stat().st_size > 1000
+
+
+def test_tables_with_no_runs_are_still_written_with_every_cell_missing(cli, tmp_path):
+    (tmp_path / "runs").mkdir()
+    proc = cli("tables", "--runs", tmp_path / "runs", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    assert "0/36 cells filled" in proc.stdout
+    assert "\u2014 (77.5 \u00b1 3.0)" in (tmp_path / "out" / "main_quick.md").read_text()
+
+
+def test_tables_reject_a_missing_runs_dir(cli, tmp_path):
+    proc = cli("tables", "--runs", tmp_path / "nowhere")
+    assert proc.returncode == 2 and "nowhere" in proc.stderr and "valid" in proc.stderr
+
+
+def test_the_paper_numbers_are_read_not_typed_twice():
+    assert tables.PAPER["main"]["success_rate"]["cuboid"]["ours"] == [77.5, 3.0]
+    assert tables.PAPER["ocb_ablation"]["completion_time_s"]["t40"]["ours_no_ocb"] == [34.9, 0.3]
