@@ -147,5 +147,5 @@ def test_an_unknown_held_reward_term_is_bad_input(high_cfg, mid):
     from mapush.errors import BadInput
 
     high_cfg["level"]["hold_at_target"] = ["target_reached", "speed"]
-    with pytest.raises(BadInput, match="'speed'.*valid: target_reached"):
+    with pytest.raises(BadInput, match=r"'speed'.*valid: target_reached"):
         HighPushEnv(high_cfg, mid, num_envs=1)
