@@ -14,6 +14,7 @@ import mapush
 from mapush.config import check_run_values, load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.envs.high import HighPushEnv
 from mapush.envs.mid import MidPushEnv
+from mapush.envs.mid_long import LongMidPushEnv
 from mapush.errors import BadInput
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import repair_in_place
@@ -42,7 +43,7 @@ def exit_on_sigterm() -> None:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
-LEVELS = {"mid": MidPushEnv, "high": HighPushEnv}
+LEVELS = {"mid": MidPushEnv, "mid_long": LongMidPushEnv, "high": HighPushEnv}
 """The env class of each trainable level."""
 
 
@@ -56,8 +57,8 @@ def env_class(cfg: dict) -> type:
 
 def make_env(cfg: dict, evaluation: bool = False):
     """The env of a config. The high level loads its frozen mid level and, for evaluation, an OMPL planner."""
-    if env_class(cfg) is MidPushEnv:
-        return MidPushEnv(cfg)
+    if env_class(cfg) is not HighPushEnv:
+        return env_class(cfg)(cfg)
     mid = load_mid_policy(cfg["mid"], cfg["task"])
     planner = None
     if evaluation and cfg["level"]["path"]["plan_at_eval"]:

@@ -31,7 +31,8 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
     results = _results(tmp_path / "sweeps")
     assert sorted(r["method"] for r in results.values()) == sorted(methods)
     for result in results.values():
-        assert set(result["stages"]) == {"mid", "high"}
+        stages = {"ml": {"mid"}, "ml_ft": {"mid"}}.get(result["method"], {"mid", "high"})
+        assert set(result["stages"]) == stages
         assert result["evals"]["main"]["episodes"] == 2
         assert 0.0 <= result["evals"]["main"]["success_rate"] <= 1.0
         for run_dir in map(Path, result["stages"].values()):
@@ -40,8 +41,10 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
     assert by_method["sa"]["num_agents"] == 1 and by_method["ours"]["num_agents"] == 2
     high_cfg = (Path(by_method["ours"]["stages"]["high"]) / "config.yaml").read_text()
     assert f"mid: {by_method['ours']['stages']['mid']}" in high_cfg  # the high level sits on this job's mid run
-    no_ocb_mid = (Path(by_method["ours_no_ocb"]["stages"]["mid"]) / "config.yaml").read_text()
-    assert "ocb: null" in no_ocb_mid
+    for method in ("ours_no_ocb", "ml"):
+        assert "ocb: null" in (Path(by_method[method]["stages"]["mid"]) / "config.yaml").read_text()
+    ml_ft = (Path(by_method["ml_ft"]["stages"]["mid"]) / "config.yaml").read_text()
+    assert "name: mid_long" in ml_ft and "occlusion_based" in ml_ft  # the long map, OCB kept
 
 
 @pytest.mark.parametrize("launcher", ["local", "submitit_local"])
@@ -182,6 +185,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert "10.0 \u00b1 0.0 (0.0 \u00b1 0.0)" in md  # SA on the cylinder, one seed
     assert "\u2014 (4.5 \u00b1 0.3)" in md  # SA on the cuboid: no job
     assert "- sa / cuboid / success_rate: no finished job" in md
+    assert "- hl / cuboid / success_rate: method not built yet (no conf/method/hl.yaml)" in md
 
     tex = (out / "main_quick.tex").read_text()
     assert "\\toprule" in tex and "\\midrule" in tex and "\\bottomrule" in tex

@@ -149,3 +149,19 @@ def test_an_unknown_held_reward_term_is_bad_input(high_cfg, mid):
     high_cfg["level"]["hold_at_target"] = ["target_reached", "speed"]
     with pytest.raises(BadInput, match=r"'speed'.*valid: target_reached"):
         HighPushEnv(high_cfg, mid, num_envs=1)
+
+
+def test_the_ml_baseline_env_pushes_straight_to_the_distant_target_among_obstacles(cfg_for):
+    from mapush.envs.mid_long import LongMidPushEnv
+
+    cfg = cfg_for("level=mid_long", "reward.terms.ocb=null")
+    env = LongMidPushEnv(cfg, num_envs=3)
+    assert torch.equal(env.subgoal_xy, env.target_xy)  # no high level: the final target is the subgoal
+    assert (env.subgoal_distance >= 10.0).all()  # the areas are 10+ m apart along x
+    assert env.max_episode_length == 8000  # 160 s at 50 Hz
+    frame = env.scene_frame()
+    placed = torch.isfinite(frame["obstacles"]).all(-1).all(-1) & (frame["obstacles"].abs() < 100).all(-1).all(-1)
+    assert placed.sum() >= 3 * cfg["level"]["obstacles"]["count"] - 1
+    obs, reward, *_ = env.step(torch.zeros(3, 2, 3))
+    assert obs["policy"].shape[:2] == (3, 2) and reward.shape == (3, 2)
+    assert "ocb" not in env.rewards.terms

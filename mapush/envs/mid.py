@@ -51,7 +51,7 @@ class MidPushEnv:
         self.num_agents = task["num_agents"]
         self.policy_agents = self.num_agents  # one policy row per robot (decentralized, shared weights)
         self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
-        self.sim = BatchSim(cfg["sim"], task, self.lowlevel, self.num_envs)
+        self.sim = self._make_sim()
         self.rewards = RewardManager(cfg["reward"]["terms"])
         self.dt = self.sim.dt
         self.frame_dt = self.dt  # interval between recorder captures
@@ -78,12 +78,20 @@ class MidPushEnv:
 
     validate = staticmethod(validate_push_config)
 
+    def _make_sim(self) -> BatchSim:
+        """The batched simulation: free space (the long-horizon variant adds obstacle blocks)."""
+        return BatchSim(self.cfg["sim"], self.cfg["task"], self.lowlevel, self.num_envs)
+
+    def _sample_layout(self, n: int) -> dict[str, torch.Tensor]:
+        """Start layouts of `n` episodes (`sample_mid_layout`'s keys)."""
+        return sample_mid_layout(self.generator, n, self.cfg["task"], self.cfg["level"]["min_spawn_distance"])
+
     # ----------------------------------------------------------------------------------------------------------
     def reset(self, ids: np.ndarray) -> None:
         """Start new episodes in envs `ids`: sample a layout, write it to the simulation, refresh the state."""
         if len(ids) == 0:
             return
-        layout = sample_mid_layout(self.generator, len(ids), self.cfg["task"], self.cfg["level"]["min_spawn_distance"])
+        layout = self._sample_layout(len(ids))
         self.sim.reset(ids, layout)
         t = torch.from_numpy(ids)
         self.subgoal_xy[t] = layout["subgoal_xy"]

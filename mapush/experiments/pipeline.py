@@ -34,9 +34,10 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
     """
     method, experiment = cfg.method, cfg.experiment
     names = list(method.stages)
-    if experiment.evaluate not in names:
+    evaluated = evaluated_stage(cfg)
+    if evaluated not in names:
         raise BadInput(
-            f"experiment {experiment.name!r} evaluates stage {experiment.evaluate!r}, which method "
+            f"experiment {experiment.name!r} evaluates stage {evaluated!r}, which method "
             f"{method.name!r} lacks; valid stages: {', '.join(names)}"
         )
     budget = budget_of(cfg)
@@ -44,13 +45,18 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
     if cfg.agents is not None:
         job.append(f"task.num_agents={cfg.agents}")
     plan = []
-    for name in names[: names.index(experiment.evaluate) + 1]:
+    for name in names[: names.index(evaluated) + 1]:
         if name not in budget.stages:
             raise BadInput(f"budget {cfg.budget!r} of experiment {experiment.name!r} has no stage {name!r}")
         overrides = [*method.overrides, *method.stages[name], *job, *cfg.overrides]
         overrides.append(f"num_envs={budget.stages[name].num_envs}")
         plan.append((name, overrides))
     return plan
+
+
+def evaluated_stage(cfg: DictConfig) -> str:
+    """The stage whose policy the job evaluates: the experiment's `evaluate`, or else the method's last stage."""
+    return cfg.experiment.evaluate or list(cfg.method.stages)[-1]
 
 
 def budget_of(cfg: DictConfig) -> DictConfig:
@@ -88,7 +94,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     for name, overrides in stage_plan(cfg):
         overrides = [_resolve_stage_refs(o, runs) for o in overrides] + [f"sim.nthread={threads}"]
         runs[name] = train_stage(job_dir / name, overrides, float(budget.stages[name].env_steps))
-    evaluated = runs[cfg.experiment.evaluate]
+    evaluated = runs[evaluated_stage(cfg)]
     evals = {}
     for name, overrides in cfg.experiment.evals.items():
         path = evaluate(evaluated, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
