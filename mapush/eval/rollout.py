@@ -52,8 +52,12 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
         recorder.watch(watched, env.frame_dt, f"seed {seed}", from_start=True)
         env.recorders.append(recorder)
     load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
-    policy = runner.get_inference_policy()
-    vec = runner.env
+    return first_episodes(env, runner.env, runner.get_inference_policy(), seed)
+
+
+def first_episodes(env, vec, policy, seed: int) -> dict:
+    """Run `policy` (observations -> actions) until every env of `vec` has ended its first episode; outcomes."""
+    episodes = env.num_envs
     finished = torch.zeros(episodes, dtype=torch.bool)
     success = torch.zeros(episodes, dtype=torch.bool)
     exception = torch.zeros(episodes, dtype=torch.bool)
