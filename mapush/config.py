@@ -41,18 +41,23 @@ def _unknown_key_message(base: DictConfig, full_key: str) -> str:
     return f"unknown config key {full_key!r}; valid keys{where}: {valid}"
 
 
-def compose_config(overrides: list[str] | tuple[str, ...] = ()) -> DictConfig:
-    """Compose `conf/config.yaml` with Hydra overrides. Every mistake is a BadInput naming the valid choices."""
+def compose_config(
+    overrides: list[str] | tuple[str, ...] = (), config_name: str = "config", hydra: bool = False
+) -> DictConfig:
+    """Compose `conf/<config_name>.yaml` (a run: `config`; a sweep job: `sweep`) with Hydra overrides.
+
+    Every mistake is a BadInput naming the valid choices. `hydra=True` keeps the `hydra` node (e.g. the sweep dir).
+    """
     overrides = list(overrides)
     _check_groups(overrides)
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         try:
-            return compose(config_name="config", overrides=overrides)
+            return compose(config_name=config_name, overrides=overrides, return_hydra_config=hydra)
         except Exception as err:  # Hydra raises several types; all are the user's override mistakes
             full_key = getattr(err.__cause__, "full_key", None)
             if full_key and "not in struct" in str(err.__cause__):
-                base = compose(config_name="config", overrides=[o for o in overrides if full_key not in o])
+                base = compose(config_name=config_name, overrides=[o for o in overrides if full_key not in o])
                 raise BadInput(_unknown_key_message(base, str(full_key))) from None
             raise BadInput(f"bad override: {str(err).strip().splitlines()[0]}") from None
 

@@ -16,8 +16,7 @@ import torch
 
 from mapush.config import compose_config, to_plain
 from mapush.eval.rollout import first_episodes
-from mapush.rl.vecenv import AgentRowsVecEnv
-from mapush.train import make_env
+from mapush.train import build
 
 
 def main() -> None:
@@ -32,11 +31,8 @@ def main() -> None:
     per_seed = []
     for seed in (int(s) for s in args.seeds.split(",")):
         overrides = ["level=high", f"mid={args.mid}", f"seed={seed}", f"num_envs={args.episodes}", *args.overrides]
-        cfg = to_plain(compose_config(overrides))
-        torch.manual_seed(seed)
-        env = make_env(cfg, evaluation=True)
-        vec = AgentRowsVecEnv(env, device="cpu")
-        per_seed.append(first_episodes(env, vec, lambda obs: action.expand(obs.batch_size[0], 2), seed))
+        env, runner = build(to_plain(compose_config(overrides)), None, 0, evaluation=True)  # as mapush eval
+        per_seed.append(first_episodes(env, runner.env, lambda obs: action.expand(obs.batch_size[0], 2), seed))
     sr = np.array([r["success_rate"] for r in per_seed])
     ct = np.array([r["completion_time"] for r in per_seed])
     print(json.dumps({"action": action.tolist(), "per_seed": per_seed}, indent=2))

@@ -42,8 +42,7 @@ class LongMidPushEnv(MidPushEnv):
         self.target_xy[t] = self.subgoal_xy[t]
         obstacles = sample_obstacles(self.generator, self.cfg, self.object_xy[t], self.target_xy[t], None)
         self.obstacle_corners[t] = corners(obstacles)
-        self.sim.set_obstacles(ids, obstacles)
-        self._read_state()
+        self.sim.set_obstacles(ids, obstacles)  # fixed blocks: the robots' and object's state is unchanged
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """The mid env's frame plus the final target and the obstacles' footprints."""

@@ -134,11 +134,15 @@ def train_stage(stage_dir: Path, overrides: list[str], env_steps: float) -> Path
             return training.resume(run_dir, None)
         shutil.rmtree(run_dir)  # cut before its first checkpoint: nothing to keep
     cfg = compose_config(overrides)
-    iterations = iterations_for(cfg, env_steps)
-    overrides = [*overrides, f"train.iterations={iterations}", f"train.run_root={quoted(stage_dir)}"]
-    cfg = compose_config(overrides)
-    OmegaConf.update(cfg, "train.progress", False)
-    return training.train(cfg, overrides, command="mapush sweep (stage of " + str(stage_dir.parent) + ")")
+    budget = {
+        "train.iterations": iterations_for(cfg, env_steps),
+        "train.run_root": str(stage_dir),
+        "train.progress": False,
+    }
+    for key, value in budget.items():
+        OmegaConf.update(cfg, key, value)
+    overrides = [*overrides, *(f"{key}={value}" for key, value in budget.items())]  # the run's record
+    return training.train(cfg, overrides, command=f"mapush sweep (stage of {stage_dir.parent})")
 
 
 def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:

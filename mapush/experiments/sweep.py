@@ -19,16 +19,16 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import CONF_DIR, compose_config, group_options
+from mapush.config import CONF_DIR, compose_config, group_options, to_plain
 from mapush.errors import BadInput
-from mapush.experiments.pipeline import RESULT, budget_of, run_job, stage_plan
+from mapush.experiments.pipeline import RESULT, STAGE_REF, budget_of, run_job, stage_plan
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
 SWEEP_KEYS = (*SWEEP_GROUPS, "seed", "agents", "budget", "overrides", "sweep_root", "sweep_name", "job_threads")
 """Keys of conf/sweep.yaml; any other override (e.g. `debug=smoke`, `algo.entropy_coef=0.01`) goes to every stage."""
 FAILED = "failed.txt"
-LAUNCHER_PLUGINS = {"ray": "hydra_plugins.hydra_ray_launcher", "slurm": "hydra_plugins.hydra_submitit_launcher"}
-"""Launchers whose plugin is an optional install: the module to import, and the message when it is missing."""
+OPTIONAL_LAUNCHERS = {"ray": ("hydra_plugins.hydra_ray_launcher", "hydra-ray-launcher: pip install -e .[ray]")}
+"""Launchers whose plugin is an optional install: the module to import, and what to install."""
 
 if not OmegaConf.has_resolver("cores"):
     OmegaConf.register_new_resolver("cores", lambda: os.cpu_count() or 1)
@@ -53,9 +53,8 @@ def job_threads(cfg: DictConfig) -> int:
     """Threads of one job: `job_threads`, or the cores shared among the local launcher's concurrent jobs."""
     if int(cfg.job_threads) > 0:
         return int(cfg.job_threads)
-    launcher = HydraConfig.get().launcher
-    concurrent = int(launcher.get("n_jobs", 1) or 1) if "n_jobs" in launcher else 1
-    return max(1, (os.cpu_count() or 1) // max(1, concurrent))
+    concurrent = int(HydraConfig.get().launcher.get("n_jobs") or 1)  # joblib's cap; others: one job per process
+    return max(1, (os.cpu_count() or 1) // concurrent)
 
 
 def sweep_overrides(overrides: list[str]) -> list[str]:
@@ -75,8 +74,9 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
             tag = re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(stage)).strip("-")
             overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{tag}")
     given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
+    given_axes = _split_axes(overrides)
     for group in SWEEP_GROUPS:
-        for value in _values(given.get(group)):
+        for value in given_axes.get(group, []):
             if value not in group_options(group):
                 raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(group_options(group))}")
     launcher = given.get("launcher", "local")
@@ -98,53 +98,42 @@ def _is_sweep_key(override: str) -> bool:
     return key in SWEEP_KEYS or key == "hydra"
 
 
-def _values(value: str | None) -> list[str]:
-    return [v for v in value.split(",")] if value else []
+def _split_axes(overrides: list[str]) -> dict[str, list[str]]:
+    """`key=a,b` -> {key: [a, b]}; a bracketed list value (`overrides=[...]`) is one value."""
+    axes = {}
+    for override in overrides:
+        key, _, value = override.partition("=")
+        axes[key] = value.split(",") if "," in value and not value.startswith("[") else [value]
+    return axes
 
 
 def _check_launcher_plugin(launcher: str) -> None:
-    module = LAUNCHER_PLUGINS.get(launcher)
-    if module is None:
+    if launcher not in OPTIONAL_LAUNCHERS:
         return
+    module, install = OPTIONAL_LAUNCHERS[launcher]
     try:
         __import__(module)
     except ImportError:
-        extra = "ray" if launcher == "ray" else "the default install"
-        raise BadInput(f"launcher={launcher} needs {module.split('.')[-1]} ({extra}: pip install -e .[ray])") from None
+        raise BadInput(f"launcher={launcher} is not installed; valid: install {install}") from None
 
 
 def _check_jobs(overrides: list[str]) -> None:
     """Compose every job's stages (without training) so that a bad method, task or agent count fails now."""
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
+    from mapush.train import env_class
 
-    axes = {}
-    for o in overrides:
-        key, _, value = o.partition("=")
-        axes[key] = value.split(",") if "," in value and not value.startswith("[") else [value]
     combos: list[list[str]] = [[]]
-    for key, values in axes.items():
-        if key in ("launcher",) or key.startswith("hydra"):
+    for key, values in _split_axes(overrides).items():
+        if key in ("launcher", "seed") or key.startswith("hydra"):  # the seed changes no stage's validity
             continue
         combos = [[*c, f"{key}={v}"] for c in combos for v in values]
     checked: set[tuple[str, ...]] = set()
     for combo in combos:
-        GlobalHydra.instance().clear()
-        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-            try:
-                cfg = compose(config_name="sweep", overrides=[c for c in combo if not c.startswith("seed=")])
-            except Exception as err:
-                raise BadInput(f"bad sweep override: {str(err).strip().splitlines()[0]}") from None
-        for _, stage_overrides in stage_plan(cfg):
-            key = tuple(o for o in stage_overrides if "@" not in o)
-            if key in checked:
-                continue
-            checked.add(key)
-            stage = compose_config(list(key))
-            from mapush.train import env_class
-
-            plain = OmegaConf.to_container(stage, resolve=True)
-            env_class(plain).validate(plain)
+        for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):
+            key = tuple(o for o in stage_overrides if STAGE_REF not in o)
+            if key not in checked:
+                checked.add(key)
+                plain = to_plain(compose_config(list(key)))
+                env_class(plain).validate(plain)
 
 
 def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:
@@ -166,14 +155,9 @@ def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:
 
 
 def _sweep_dir(overrides: list[str]) -> Path:
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    single = [o.split(",")[0] if "," in o and "[" not in o else o for o in overrides]
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        cfg = compose(config_name="sweep", overrides=single, return_hydra_config=True)
-    return Path(cfg.hydra.sweep.dir)
+    """The multirun's dir: the same for every job, so the first value of each axis will do."""
+    first = [f"{key}={values[0]}" for key, values in _split_axes(overrides).items()]
+    return Path(compose_config(first, config_name="sweep", hydra=True).hydra.sweep.dir)
 
 
 def report(sweep_dir: Path, finished: list[Path], failed: list[Path]) -> int:
