@@ -15,6 +15,7 @@ from mapush.config import check_run_values, load_run_config, new_run_dir, save_r
 from mapush.envs.high import HighPushEnv
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
+from mapush.envs.nav_high import NavHighPushEnv
 from mapush.errors import BadInput
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import repair_in_place
@@ -43,7 +44,7 @@ def exit_on_sigterm() -> None:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
-LEVELS = {"mid": MidPushEnv, "mid_long": LongMidPushEnv, "high": HighPushEnv}
+LEVELS = {"mid": MidPushEnv, "mid_long": LongMidPushEnv, "high": HighPushEnv, "high_nav": NavHighPushEnv}
 """The env class of each trainable level."""
 
 
@@ -56,14 +57,16 @@ def env_class(cfg: dict) -> type:
 
 
 def make_env(cfg: dict, evaluation: bool = False):
-    """The env of a config. The high level loads its frozen mid level and, for evaluation, an OMPL planner."""
-    if env_class(cfg) is not HighPushEnv:
-        return env_class(cfg)(cfg)
-    mid = load_mid_policy(cfg["mid"], cfg["task"])
+    """The env of a config. The high levels load their frozen mid level (if they drive one) and, for evaluation,
+    an OMPL planner."""
+    cls = env_class(cfg)
+    if not issubclass(cls, HighPushEnv):
+        return cls(cfg)
+    mid = load_mid_policy(cfg["mid"], cfg["task"]) if cls.needs_mid else None
     planner = None
     if evaluation and cfg["level"]["path"]["plan_at_eval"]:
         planner = make_planner(cfg)
-    return HighPushEnv(cfg, mid, planner=planner)
+    return cls(cfg, mid, planner=planner)
 
 
 def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bool = False):
@@ -87,11 +90,12 @@ def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bo
 def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     """Train a fresh run; returns its run dir."""
     check_run_values(cfg)
-    if cfg.level.name == "high" and cfg.mid:
-        cfg.mid = str(Path(cfg.mid).resolve())  # the run must find its mid level from anywhere
     plain = to_plain(cfg)
-    env_class(plain).validate(plain)
-    if env_class(plain) is HighPushEnv:
+    cls = env_class(plain)
+    cls.validate(plain)
+    if getattr(cls, "needs_mid", False):
+        if cfg.mid:
+            cfg.mid = plain["mid"] = str(Path(cfg.mid).resolve())  # the run must find its mid level from anywhere
         load_mid_policy(plain["mid"], plain["task"])  # fails here, before a run dir exists
     run_dir = new_run_dir(cfg)
     save_run_config(run_dir, cfg, overrides, command)

@@ -31,7 +31,9 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
     results = _results(tmp_path / "sweeps")
     assert sorted(r["method"] for r in results.values()) == sorted(methods)
     for result in results.values():
-        stages = {"ml": {"mid"}, "ml_ft": {"mid"}}.get(result["method"], {"mid", "high"})
+        stages = {"ml": {"mid"}, "ml_ft": {"mid"}, "hl": {"high"}, "hl_ft": {"high"}}.get(
+            result["method"], {"mid", "high"}
+        )
         assert set(result["stages"]) == stages
         assert result["evals"]["main"]["episodes"] == 2
         assert 0.0 <= result["evals"]["main"]["success_rate"] <= 1.0
@@ -45,6 +47,9 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
         assert "ocb: null" in (Path(by_method[method]["stages"]["mid"]) / "config.yaml").read_text()
     ml_ft = (Path(by_method["ml_ft"]["stages"]["mid"]) / "config.yaml").read_text()
     assert "name: mid_long" in ml_ft and "occlusion_based" in ml_ft  # the long map, OCB kept
+    hl, hl_ft = ((Path(by_method[m]["stages"]["high"]) / "config.yaml").read_text() for m in ("hl", "hl_ft"))
+    assert "name: high_nav" in hl and "occlusion_based" not in hl  # robots' own goals, task + penalty rewards
+    assert "name: high_nav" in hl_ft and "occlusion_based" in hl_ft  # plus the heuristic terms
 
 
 @pytest.mark.parametrize("launcher", ["local", "submitit_local"])
@@ -185,7 +190,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert "10.0 \u00b1 0.0 (0.0 \u00b1 0.0)" in md  # SA on the cylinder, one seed
     assert "\u2014 (4.5 \u00b1 0.3)" in md  # SA on the cuboid: no job
     assert "- sa / cuboid / success_rate: no finished job" in md
-    assert "- hl / cuboid / success_rate: method not built yet (no conf/method/hl.yaml)" in md
+    assert "- hl / cuboid / success_rate: no finished job" in md
 
     tex = (out / "main_quick.tex").read_text()
     assert "\\toprule" in tex and "\\midrule" in tex and "\\bottomrule" in tex

@@ -165,3 +165,41 @@ def test_the_ml_baseline_env_pushes_straight_to_the_distant_target_among_obstacl
     obs, reward, *_ = env.step(torch.zeros(3, 2, 3))
     assert obs["policy"].shape[:2] == (3, 2) and reward.shape == (3, 2)
     assert "ocb" not in env.rewards.terms
+
+
+def test_go_to_point_walks_straight_at_the_goal_within_the_limits():
+    from mapush.lowlevel.goto import go_to_point
+
+    limits = torch.tensor([0.5, 0.5, 0.5])
+    robot_xy = torch.zeros(1, 4, 2)
+    yaw = torch.tensor([[0.0, torch.pi / 2, 0.0, 0.0]])
+    goal = torch.tensor([[[2.0, 0.0], [2.0, 0.0], [0.1, 0.05], [0.0, 3.0]]])
+    cmd = go_to_point(robot_xy, yaw, goal, limits, gain=2.0, yaw_gain=2.0, arrive_m=0.2)[0]
+    assert torch.allclose(cmd[0], torch.tensor([0.5, 0.0, 0.0]))  # ahead: full speed forward, no turn
+    # facing +y with the goal along +x: the goal is to the robot's right, so vy < 0 and it turns clockwise
+    assert torch.allclose(cmd[1], torch.tensor([0.0, -0.5, -0.5]), atol=1e-6)
+    assert torch.allclose(cmd[2], torch.tensor([0.2, 0.1, 0.0]))  # near: 2 x the offset, inside arrive_m: no turn
+    # far to the left: the speed is capped at 0.5 along y, and the turn at its limit
+    assert torch.allclose(cmd[3], torch.tensor([0.0, 0.5, 0.5]), atol=1e-6)
+
+
+def test_the_hl_baseline_gives_each_robot_its_own_goal_and_no_mid_level(cfg_for):
+    from mapush.envs.nav_high import NavHighPushEnv, nav_high_obs_dim
+
+    cfg = cfg_for("level=high_nav", "reward=high_nav_ft", "level.episode_length_s=4")
+    env = NavHighPushEnv(cfg, num_envs=3)
+    assert env.policy_agents == 2 and "ocb" in env.rewards.terms
+    obs = env.observations()
+    assert obs["policy"].shape == (3, 2, nav_high_obs_dim(cfg)) == obs["critic"].shape
+    start = env.robot_xy.clone()
+    # robot 0 walks toward the target (+x of the target frame), robot 1 away from it
+    action = torch.tensor([[1.0, 0.0], [-1.0, 0.0]]).expand(3, 2, 2)
+    obs, reward, *_ = env.step(action)
+    heading = env.target_xy - env.object_xy
+    heading = heading / torch.linalg.vector_norm(heading, dim=-1, keepdim=True)
+    moved = ((env.robot_xy - start) * heading.unsqueeze(1)).sum(-1)  # (E, A) along the target direction
+    assert (moved[:, 0] > 0.1).all() and (moved[:, 1] < -0.1).all()
+    goal_offset = torch.linalg.vector_norm(env.robot_goal_xy - start, dim=-1)
+    assert torch.allclose(goal_offset, torch.full((3, 2), cfg["level"]["robot_goal_range_m"]), atol=1e-4)
+    assert reward.shape == (3, 2) and torch.isfinite(reward).all() and torch.isfinite(obs["policy"]).all()
+    assert not (reward[:, 0] == reward[:, 1]).all()  # each robot's own heuristic terms (object approach, OCB)

@@ -60,6 +60,8 @@ class HighPushEnv:
         "object_hit_obstacle",
         "planner_failure",
     )
+    needs_mid = True
+    """Whether the env drives the robots through a frozen mid level (`mid=RUN_DIR`)."""
 
     def __init__(self, cfg: dict, mid, num_envs: int | None = None, planner=None):
         self.validate(cfg)
@@ -67,7 +69,7 @@ class HighPushEnv:
         task, level = cfg["task"], cfg["level"]
         self.num_envs = num_envs or cfg["num_envs"]
         self.num_agents = task["num_agents"]
-        self.policy_agents = 1  # one centralized decision per team
+        self.policy_agents = self._policy_rows()
         self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
         self.num_obstacles = level["obstacles"]["count"]
         self.sim = BatchSim(
@@ -81,7 +83,7 @@ class HighPushEnv:
         self.dt = self.sim_dt * self.decision_steps
         self.frame_dt = self.sim_dt  # recorders see every mid-level step
         self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
-        self.num_actions = 2  # the subgoal's turn and distance, each in [-1, 1]
+        self.num_actions = 2  # per policy row: the subgoal's turn and distance, each in [-1, 1]
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
         self.object_radius = object_radius(task["object"])
         self.robot_size = tuple(cfg["lowlevel"]["size"][:2])
@@ -105,12 +107,17 @@ class HighPushEnv:
         if unknown:
             raise BadInput(f"unknown level.terminal_exceptions {sorted(unknown)}; valid: {', '.join(self.EXCEPTIONS)}")
         self.terminal = torch.tensor([k in level["terminal_exceptions"] for k in self.EXCEPTIONS])
-        self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
-        self.last_reward = torch.zeros(E, 1)
-        self.last_parts = {name: torch.zeros(E, 1) for name in self.rewards.terms}
+        rows = self.policy_agents
+        self.episode_sums = {name: torch.zeros(E, rows) for name in self.rewards.terms}
+        self.last_reward = torch.zeros(E, rows)
+        self.last_parts = {name: torch.zeros(E, rows) for name in self.rewards.terms}
         self.outcomes = EpisodeOutcomes()
         self.recorders = []
         self.reset(np.arange(E))
+
+    def _policy_rows(self) -> int:
+        """Policy rows per env: one centralized decision per team."""
+        return 1
 
     @staticmethod
     def validate(cfg: dict) -> None:
@@ -227,9 +234,7 @@ class HighPushEnv:
         d_min, d_max = level["subgoal_distance"]
         distance = d_min + (a[:, 1] + 1) / 2 * (d_max - d_min)
         base = self.path_direction()
-        turn = a[:, 0] * level["subgoal_max_turn"]
-        c, s = torch.cos(turn), torch.sin(turn)
-        direction = torch.stack([c * base[:, 0] - s * base[:, 1], s * base[:, 0] + c * base[:, 1]], -1)
+        direction = rotate(base, a[:, 0] * level["subgoal_max_turn"])
         return self.object_xy + direction * distance.unsqueeze(-1)
 
     def observations(self) -> dict[str, torch.Tensor]:
@@ -248,13 +253,12 @@ class HighPushEnv:
             obs, rewards (E, 1), terminated (E,), truncated (E,), info (`log`, `episode_end`) as `MidPushEnv.step`.
         """
         level = self.cfg["level"]
-        self.subgoal_xy = self.subgoal_from_action(actions.reshape(self.num_envs, 2))
-        self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
+        self._apply_action(actions.reshape(self.num_envs, self.policy_agents, self.num_actions))
         finished = self.success | self.failed  # latched within the decision
         diverged_any = torch.zeros(self.num_envs, dtype=torch.bool)
         self.exception = torch.zeros(self.num_envs, dtype=torch.bool)
         for k in range(self.decision_steps):
-            commands = self.mid.commands(obs_terms.local_observation(self))
+            commands = self._commands()
             failed = self.sim.step(commands)
             self._read_state()
             self.inner_step += (~finished).long()
@@ -290,6 +294,15 @@ class HighPushEnv:
         info = self._episode_info(done, diverged_any)
         self.reset(done.nonzero().flatten().numpy())
         return self.observations(), reward, terminated, truncated, info
+
+    def _apply_action(self, actions: torch.Tensor) -> None:
+        """Start a decision: the object's subgoal from the actions (E, 1, 2), shown by the subgoal marker."""
+        self.subgoal_xy = self.subgoal_from_action(actions[:, 0])
+        self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
+
+    def _commands(self) -> torch.Tensor:
+        """Every robot's (vx, vy, yaw rate) command (E, A, 3) for the next step: the frozen mid level's."""
+        return self.mid.commands(obs_terms.local_observation(self))
 
     def _hold_factor(self, success: torch.Tensor) -> torch.Tensor:
         """Per-env multiplier (E,): sum_{k<R} gamma^k for envs that succeeded, R the decisions left; else 1.
@@ -370,6 +383,19 @@ def _spacing(path: torch.Tensor) -> torch.Tensor:
     return torch.linalg.vector_norm(path[:, 1] - path[:, 0], dim=-1)
 
 
+def target_heading(env: HighPushEnv) -> torch.Tensor:
+    """Direction from the object to the final target, rad (E,): the x axis of the target frame."""
+    to_target = env.target_xy - env.object_xy
+    return torch.atan2(to_target[:, 1], to_target[:, 0])
+
+
+def rotate(vectors: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
+    """Vectors (E, ..., 2) turned by `angle` (E,) rad, counter-clockwise."""
+    shape = (-1, *(1,) * (vectors.dim() - 2))
+    c, s = torch.cos(angle).view(shape), torch.sin(angle).view(shape)
+    return torch.stack([c * vectors[..., 0] - s * vectors[..., 1], s * vectors[..., 0] + c * vectors[..., 1]], -1)
+
+
 def high_observation(env: HighPushEnv) -> torch.Tensor:
     """The centralized high-level view in the target frame (origin at the object, x toward the final target).
 
@@ -380,17 +406,12 @@ def high_observation(env: HighPushEnv) -> torch.Tensor:
         episode time fraction (1)
     """
     observe = env.cfg["level"]["observe"]
-    to_target = env.target_xy - env.object_xy
-    heading = torch.atan2(to_target[:, 1], to_target[:, 0])  # (E,)
-    c, s = torch.cos(heading), torch.sin(heading)
+    heading = target_heading(env)
 
     def frame(points: torch.Tensor) -> torch.Tensor:  # (E, ..., 2) world -> target frame
-        rel = points - env.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2)
-        cc, ss = c.view(-1, *(1,) * (points.dim() - 2)), s.view(-1, *(1,) * (points.dim() - 2))
-        return torch.stack([cc * rel[..., 0] + ss * rel[..., 1], -ss * rel[..., 0] + cc * rel[..., 1]], -1)
+        return rotate(points - env.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2), -heading)
 
-    vel = env.object_vel[:, :2]
-    vel_frame = torch.stack([c * vel[:, 0] + s * vel[:, 1], -s * vel[:, 0] + c * vel[:, 1]], -1)
+    vel_frame = rotate(env.object_vel[:, :2], -heading)
     ahead = env.path_points_ahead(torch.tensor(observe["path_ahead_m"], dtype=torch.float32))
     parts = [
         env.target_distance.unsqueeze(-1),

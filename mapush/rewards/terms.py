@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import torch
 
+from mapush.errors import BadInput
 from mapush.planning.paths import distance_to_path
 
 
@@ -112,9 +113,17 @@ def target_approach(env) -> torch.Tensor:
     return _shared(env, 1.0 / (1.0 + env.target_distance))
 
 
-def path_following(env) -> torch.Tensor:
-    """1 / (1 + d), d from the chosen subgoal to the nearest sampled point of the reference path (paper)."""
-    return _shared(env, 1.0 / (1.0 + distance_to_path(env.path, env.subgoal_xy)))
+PATH_FOLLOWERS = ("subgoal", "object")
+"""What `path_following` measures against the path: the chosen subgoal (paper) or the object (H+L, no subgoal)."""
+
+
+def path_following(env, point: str) -> torch.Tensor:
+    """1 / (1 + d), d from the chosen subgoal (or the object, `point="object"`) to the nearest sampled point of
+    the reference path."""
+    if point not in PATH_FOLLOWERS:
+        raise BadInput(f"path_following point {point!r}; valid: {', '.join(PATH_FOLLOWERS)}")
+    xy = env.subgoal_xy if point == "subgoal" else env.object_xy
+    return _shared(env, 1.0 / (1.0 + distance_to_path(env.path, xy)))
 
 
 def obstacle_proximity(env) -> torch.Tensor:
