@@ -546,3 +546,25 @@ def test_eval_live_serves_the_scene_over_a_foxglove_websocket(run_copy, tmp_path
     assert subscription == 7
     update = SceneUpdate.FromString(data[13:])  # opcode, subscription id (4), log time (8), payload
     assert {"arena", "object", "robot0", "robot1"} <= {e.id for e in update.entities}
+
+
+def test_the_hl_scene_shows_each_robots_navigation_goal(tmp_path, cfg_for):
+    from mapush.envs.nav_high import NavHighPushEnv
+
+    cfg = cfg_for("level=high_nav", "level.episode_length_s=4")
+    env = NavHighPushEnv(cfg, num_envs=1)
+    recorder = EpisodeRecorder(
+        tmp_path / "e.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms), env.EXCEPTIONS
+    )
+    recorder.watch([0], env.frame_dt, "test", from_start=True)
+    env.recorders.append(recorder)
+    action = torch.tensor([[[1.0, 0.5], [-0.5, -1.0]]])
+    env.step(action)
+    goals = env.robot_goal_xy[0].clone()  # the first decision's, shown from its first step
+    for _ in range(env.max_episode_length - 1):  # the rest of the 4 s episode: only whole episodes are written
+        env.step(action)
+    recorder.close()
+    scene = by_topic(read_messages(tmp_path / "e.mcap"))["/scene"][0]
+    discs = next(e for e in scene.entities if e.id == "robot_goals").cylinders
+    drawn = [[d.pose.position.x, d.pose.position.y] for d in discs]
+    assert torch.allclose(torch.tensor(drawn), goals, atol=1e-5)

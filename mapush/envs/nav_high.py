@@ -75,6 +75,10 @@ class NavHighPushEnv(HighPushEnv):
             goto["arrive_m"],
         )
 
+    def scene_frame(self) -> dict[str, torch.Tensor]:
+        """The high level's frame plus every robot's navigation goal."""
+        return {**super().scene_frame(), "robot_goal_xy": self.robot_goal_xy}
+
     def observations(self) -> dict[str, torch.Tensor]:
         """`policy` and `critic`: (E, A, d), the shared view plus each robot's own (module docstring)."""
         heading = target_heading(self)

@@ -52,6 +52,7 @@ TARGET = Color(r=0.95, g=0.85, b=0.1, a=0.45)
 OBSTACLE = Color(r=0.35, g=0.35, b=0.4, a=1.0)
 PATH = Color(r=0.1, g=0.6, b=0.95, a=1.0)
 MARKER_HEIGHT = 0.02  # m; goal discs lie flat on the floor
+GOAL_RADIUS = 0.15  # m; the discs of the robots' own navigation goals (H+L)
 
 
 def robot_frame(i: int) -> str:
@@ -150,7 +151,8 @@ def scene_update(layout: SceneLayout, frame: dict[str, np.ndarray], t_ns: int) -
     Args:
         layout: the run's fixed geometry.
         frame: one env's `scene_frame()` row: `subgoal_xy` (2,), and when the level has them `target_xy` (2,),
-            `obstacles` (K, 4, 2) footprint corners (NaN rows are absent obstacles) and `path` (P, 2).
+            `obstacles` (K, 4, 2) footprint corners (NaN rows are absent obstacles), `path` (P, 2) and
+            `robot_goal_xy` (A, 2), the robots' own navigation goals (H+L).
         t_ns: the message time.
     """
     ts = timestamp(t_ns)
@@ -180,6 +182,11 @@ def scene_update(layout: SceneLayout, frame: dict[str, np.ndarray], t_ns: int) -
     if "obstacles" in frame:
         cubes = _obstacle_cubes(frame["obstacles"], layout.obstacle_height)
         entities.append(_entity(ts, WORLD, "obstacles", cubes=cubes))
+    if "robot_goal_xy" in frame:  # H+L: each robot's navigation goal, in its colour
+        discs = [
+            _disc(*xy, GOAL_RADIUS, ROBOT_COLORS[i % len(ROBOT_COLORS)]) for i, xy in enumerate(frame["robot_goal_xy"])
+        ]
+        entities.append(_entity(ts, WORLD, "robot_goals", cylinders=discs))
     if "path" in frame and len(frame["path"]) > 1:
         points = [Point3(x=float(x), y=float(y), z=MARKER_HEIGHT) for x, y in frame["path"]]
         line = LinePrimitive(

@@ -1,0 +1,76 @@
+"""The Go1 model: compiles alone and attached into pushing scenes, matches its published facts, stands under PD."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from mapush.lowlevel import go1_constants as go1
+from mapush.lowlevel.go1_model import go1_spec, standalone_spec
+from mapush.sim.scene import build_scene, robot_prefixes
+
+
+def test_the_model_compiles_alone_with_the_published_masses_ranges_and_torque_limits():
+    model = standalone_spec().compile()
+    assert model.nu == 12 and model.nq == 7 + 12
+    assert sum(model.body_mass) == pytest.approx(12.03, abs=0.01)  # trunk 5.204 + 4 legs x 1.707 kg
+    for name in go1.JOINT_NAMES:
+        leg, joint = name.split("_")[:2]
+        low, high = go1.JOINT_RANGE[joint]
+        if joint == "hip" and go1.LEG_SIGNS[leg][1] < 0:
+            low, high = -high, -low
+        assert model.joint(name).range.tolist() == pytest.approx([low, high])
+        actuator = model.actuator(name.replace("_joint", ""))
+        assert actuator.forcerange.tolist() == pytest.approx([-go1.TORQUE_LIMIT[joint], go1.TORQUE_LIMIT[joint]])
+    # the qpos layout follows JOINT_NAMES after the free joint
+    assert [model.joint(name).qposadr[0] for name in go1.JOINT_NAMES] == list(range(7, 19))
+
+
+def test_the_mjcf_it_writes_compiles_to_the_same_model():
+    spec = go1_spec()
+    again = mujoco.MjSpec.from_string(spec.to_xml()).compile()
+    original = spec.compile()
+    assert (again.nq, again.nu, again.nbody) == (original.nq, original.nu, original.nbody)
+    assert sum(again.body_mass) == pytest.approx(sum(original.body_mass))
+
+
+class Go1Robot:
+    """A low level whose robot is the Go1: what `build_scene` attaches once per agent."""
+
+    @staticmethod
+    def robot_spec():
+        return go1_spec()
+
+
+@pytest.mark.parametrize("agents", [1, 2, 3, 4])
+def test_the_model_attaches_by_prefix_into_a_pushing_scene(cfg_for, agents):
+    composed_cfg = cfg_for()
+    task = {**composed_cfg["task"], "num_agents": agents}
+    model = build_scene(composed_cfg["sim"], task, Go1Robot(), obstacles=2).compile()
+    assert model.nu == 12 * agents
+    for prefix in robot_prefixes(agents):
+        assert model.body(f"{prefix}{go1.ROOT_BODY}").mass[0] == pytest.approx(go1.TRUNK_INERTIAL[0])
+        for name in go1.JOINT_NAMES:
+            model.joint(f"{prefix}{name}")  # raises KeyError when missing
+
+
+def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
+    model = standalone_spec().compile()
+    data = mujoco.MjData(model)
+    pose = np.array(go1.default_joint_angles())
+    data.qpos[7:] = pose
+    data.ctrl[:] = pose
+    mujoco.mj_forward(model, data)
+    start = data.qpos[:3].copy()
+    for _ in range(round(2.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    x, y = data.qpos[4:6]  # quaternion (w, x, y, z)
+    up = 1 - 2 * (x * x + y * y)  # z of the trunk's up axis
+    assert math.acos(min(up, 1.0)) < 0.05  # rad of tilt
+    assert np.linalg.norm(data.qpos[:2] - start[:2]) < 0.05  # m of drift
+    assert abs(data.qpos[2] - go1.standing_height()) < 0.04  # m: the feet carry it at its standing height
+    assert np.abs(data.qpos[7:] - pose).max() < 0.15  # rad: the servos hold the pose against gravity
+    assert np.abs(data.qvel).max() < 0.05  # at rest
