@@ -65,11 +65,16 @@ def evaluate(
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     out = run_eval(target, episodes, seed_list, list(ctx.args), live=live)
     result = json.loads(out.read_text())
-    print(
-        f"success rate {100 * result['success_rate']:.1f} +- {100 * result['success_rate_std']:.1f} % | "
-        f"completion time {result['completion_time']:.3f} ({result['completion_time_s']:.2f} s) | "
-        f"{result['episodes']} episodes x seeds {result['seeds']}"
-    )
+    runs = f"{result['episodes']} episodes x seeds {result['seeds']}"
+    if "velocity_error" in result:  # the low level
+        print(
+            f"velocity error {result['velocity_error']:.3f} m/s | fall rate {100 * result['fall_rate']:.1f} % | {runs}"
+        )
+    else:
+        print(
+            f"success rate {100 * result['success_rate']:.1f} +- {100 * result['success_rate_std']:.1f} % | "
+            f"completion time {result['completion_time']:.3f} ({result['completion_time_s']:.2f} s) | {runs}"
+        )
     print(out)
 
 

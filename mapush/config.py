@@ -74,8 +74,11 @@ RUN_VALUES = {
 
 def check_run_values(cfg: DictConfig) -> None:
     """BadInput for a mistyped or out-of-range run value (e.g. `seed=abc`, `num_envs=0`)."""
+    absent = object()
     for key, (kind, minimum, valid) in RUN_VALUES.items():
-        value = OmegaConf.select(cfg, key)
+        value = OmegaConf.select(cfg, key, default=absent)
+        if value is absent:  # a level without this value (e.g. the low level has no success distance)
+            continue
         ok = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
         if not ok or value < minimum:
             raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")

@@ -13,6 +13,7 @@ from omegaconf import DictConfig
 import mapush
 from mapush.config import check_run_values, load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.envs.high import HighPushEnv
+from mapush.envs.low import LocomotionEnv
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv
@@ -44,7 +45,13 @@ def exit_on_sigterm() -> None:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
-LEVELS = {"mid": MidPushEnv, "mid_long": LongMidPushEnv, "high": HighPushEnv, "high_nav": NavHighPushEnv}
+LEVELS = {
+    "low": LocomotionEnv,
+    "mid": MidPushEnv,
+    "mid_long": LongMidPushEnv,
+    "high": HighPushEnv,
+    "high_nav": NavHighPushEnv,
+}
 """The env class of each trainable level."""
 
 
@@ -60,6 +67,8 @@ def make_env(cfg: dict, evaluation: bool = False):
     """The env of a config. The high levels load their frozen mid level (if they drive one) and, for evaluation,
     an OMPL planner."""
     cls = env_class(cfg)
+    if cls is LocomotionEnv:
+        return cls(cfg, evaluation=evaluation)
     if not issubclass(cls, HighPushEnv):
         return cls(cfg)
     mid = load_mid_policy(cfg["mid"], cfg["task"]) if cls.needs_mid else None
@@ -148,7 +157,7 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
-    if interval > 0:
+    if interval > 0 and hasattr(env, "scene_frame"):  # the pushing levels; the low level has no scene log yet
         frames_per_step = round(env.dt / env.frame_dt)  # the high level records every mid-level step
         every_steps = interval * int(cfg["algo"]["num_steps_per_env"]) * frames_per_step
         recorder = attach_episode_recorder(cfg, env, Path(next_free_path(str(run_dir / TRAIN_EPISODES))), every_steps)

@@ -74,3 +74,43 @@ def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
     assert abs(data.qpos[2] - go1.standing_height()) < 0.04  # m: the feet carry it at its standing height
     assert np.abs(data.qpos[7:] - pose).max() < 0.15  # rad: the servos hold the pose against gravity
     assert np.abs(data.qvel).max() < 0.05  # at rest
+
+
+def test_the_locomotion_env_steps_with_the_documented_shapes_and_randomizes_each_env(cfg_for):
+    import torch
+
+    from mapush.envs.low import LocomotionEnv
+
+    cfg = cfg_for("level=low")
+    env = LocomotionEnv(cfg, num_envs=4)
+    obs = env.observations()
+    assert obs["policy"].shape == (4, 1, 45) and obs["critic"].shape == (4, 1, 48)
+    spec = cfg["level"]["commands"]
+    for k, key in enumerate(("vx", "vy", "yaw_rate")):
+        assert ((env.commands[:, k] >= spec[key][0]) & (env.commands[:, k] <= spec[key][1])).all()
+    floor = env.model.geom("floor").id
+    assert len(set(env.batch.expand("geom_friction")[:, floor, 0].round(6))) == 4  # one friction per env
+    for _ in range(10):
+        obs, reward, terminated, _, _ = env.step(torch.zeros(4, 1, 12))
+        assert reward.shape == (4, 1) and torch.isfinite(reward).all() and torch.isfinite(obs["policy"]).all()
+    assert not terminated.any()  # standing in the default pose does not fall
+    # tipped on its back: a fall ends the episode as an exception
+    env.qpos[0, 3:7] = [0.0, 1.0, 0.0, 0.0]
+    env.batch.forward(np.array([0]))
+    _, reward, terminated, _, info = env.step(torch.zeros(4, 1, 12))
+    assert terminated[0] and info["episode_end"]["exception"][0] and reward[0, 0] < 0
+
+
+def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, tmp_path):
+    import json
+    from pathlib import Path
+
+    proc = cli("train", "level=low", "debug=smoke", f"train.run_root={tmp_path}")
+    assert proc.returncode == 0, proc.stderr
+    run_dir = Path(proc.stdout.strip().splitlines()[-1])
+    assert (run_dir / "model_1.pt").is_file() and (run_dir / "policy.pt").is_file()
+    evaluated = cli("eval", run_dir, "--episodes", "3")
+    assert evaluated.returncode == 0, evaluated.stderr
+    result = json.loads((run_dir / "eval.json").read_text())
+    assert 0.0 <= result["fall_rate"] <= 1.0 and 0.0 <= result["velocity_error"] < 5.0
+    assert "velocity error" in evaluated.stdout

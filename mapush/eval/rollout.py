@@ -63,6 +63,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     exception = torch.zeros(episodes, dtype=torch.bool)
     planner_failure = torch.zeros(episodes, dtype=torch.bool)
     time_s = torch.zeros(episodes)
+    velocity_error = torch.zeros(episodes)  # the low level: mean |commanded - actual| velocity of each episode
     obs = vec.get_observations()
     with torch.inference_mode():
         while not finished.all():
@@ -74,10 +75,16 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
             if "planner_failure" in end:
                 planner_failure |= end["planner_failure"] & first
             time_s[first] = end["time_s"][first]
+            if "velocity_error" in end:
+                velocity_error[first] = end["velocity_error"][first]
             finished |= end["done"]
     timeout_s = env.max_episode_length * env.dt
     completion_s = torch.where(success, time_s, torch.full_like(time_s, timeout_s))
+    low_level = {}
+    if "velocity_error" in vec.last_info["episode_end"]:
+        low_level = {"velocity_error": velocity_error.mean().item(), "fall_rate": exception.float().mean().item()}
     return {
+        **low_level,
         "seed": seed,
         "episodes": episodes,
         "success_rate": success.float().mean().item(),
@@ -133,6 +140,9 @@ def evaluate(
         "seeds": seeds,
         "per_seed": per_seed,
     }
+    if "velocity_error" in per_seed[0]:  # the low level (architecture 6): tracking error and falls
+        for key in ("velocity_error", "fall_rate"):
+            result[key] = float(np.mean([r[key] for r in per_seed]))
     out = run_dir / f"eval{suffix}.json"
     out.write_text(json.dumps(result, indent=2) + "\n")
     return out
@@ -142,6 +152,8 @@ def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
     """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
     from mapush.train import env_class
 
+    if not hasattr(env_class(cfg), "scene_frame"):  # the low level has no scene log yet
+        return []
     layout, terms = SceneLayout.from_config(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
     exceptions = env_class(cfg).EXCEPTIONS
     recorders: list = []
