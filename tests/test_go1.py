@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import json
 import math
+import shutil
+from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
+import torch
 
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
@@ -101,16 +105,53 @@ def test_the_locomotion_env_steps_with_the_documented_shapes_and_randomizes_each
     assert terminated[0] and info["episode_end"]["exception"][0] and reward[0, 0] < 0
 
 
-def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, tmp_path):
-    import json
-    from pathlib import Path
+@pytest.fixture(scope="module")
+def low_run(tmp_path_factory) -> Path:
+    """A 2-iteration `mapush train level=low debug=smoke` run dir, made once through the CLI. Read-only."""
+    from conftest import _run_cli
 
-    proc = cli("train", "level=low", "debug=smoke", f"train.run_root={tmp_path}")
+    root = tmp_path_factory.mktemp("low_runs")
+    proc = _run_cli(["train", "level=low", "debug=smoke", f"train.run_root={root}"], cwd=root)
     assert proc.returncode == 0, proc.stderr
-    run_dir = Path(proc.stdout.strip().splitlines()[-1])
+    return Path(proc.stdout.strip().splitlines()[-1])
+
+
+def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_run, tmp_path):
+    run_dir = tmp_path / "run"
+    shutil.copytree(low_run, run_dir)
     assert (run_dir / "model_1.pt").is_file() and (run_dir / "policy.pt").is_file()
     evaluated = cli("eval", run_dir, "--episodes", "3")
     assert evaluated.returncode == 0, evaluated.stderr
     result = json.loads((run_dir / "eval.json").read_text())
     assert 0.0 <= result["fall_rate"] <= 1.0 and 0.0 <= result["velocity_error"] < 5.0
     assert "velocity error" in evaluated.stdout
+
+
+def test_lowlevel_go1_without_a_policy_is_one_clear_line(cli, tmp_path):
+    proc = cli("train", "lowlevel=go1", "debug=smoke", f"train.run_root={tmp_path}")
+    assert proc.returncode == 2
+    assert "no pretrained Go1 policy is shipped yet" in proc.stderr and "mapush train level=low" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not list(tmp_path.glob("mid/**/config.yaml"))
+
+
+def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_run):
+    from mapush.envs.mid import MidPushEnv
+
+    cfg = cfg_for("lowlevel=go1", f"lowlevel.policy={low_run / 'policy.pt'}")
+    env = MidPushEnv(cfg, num_envs=3)
+    assert env.sim.model.nu == 12 * env.num_agents
+    layout_xy = env.robot_xy.clone()
+    assert (env.robot_tilt < 0.05).all()  # placed standing upright
+    trunk = env.sim.qpos[:, env.lowlevel.qpos_idx[:, 2]]
+    assert np.allclose(trunk, go1.standing_height() + 0.01)
+    before = env.sim.ctrl.copy()
+    obs, reward, *_ = env.step(torch.zeros(3, env.num_agents, 3))
+    assert not np.allclose(env.sim.ctrl, before)  # the locomotion policy wrote joint targets
+    assert obs["policy"].shape[:2] == (3, env.num_agents) and torch.isfinite(reward).all()
+    assert torch.linalg.vector_norm(env.robot_xy - layout_xy, dim=-1).max() < 0.2  # one 20 ms step
+    # a robot tipped over is a fall: an exception of the mid level
+    env.sim.qpos[0, env.lowlevel.qpos_idx[0, 3:7]] = [0.0, 1.0, 0.0, 0.0]
+    env.sim.batch.forward(np.array([0]))
+    *_, info = env.step(torch.zeros(3, env.num_agents, 3))
+    assert info["episode_end"]["exception"][0]
+    assert env.EXCEPTIONS[int(info["episode_end"]["exception_kind"][0])] == "robot_tilt"

@@ -22,6 +22,7 @@ def validate_push_config(cfg: dict) -> None:
     """Check a config before anything is built or written: low-level backend, agent count, reward terms."""
     if cfg["lowlevel"]["name"] not in BACKENDS:
         raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
+    BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
     check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
     RewardManager(cfg["reward"]["terms"])
 

@@ -1,12 +1,12 @@
 """The low level: a Go1 learns to track (vx, vy, yaw rate) commands on flat ground (paper III-B; architecture 2).
 
 E single-robot MuJoCo sims stepped together by `mujoco.batch`; no Python loop over envs. The policy acts at 50 Hz:
-its 12 actions are joint-angle offsets from the standing pose (times `level.action_scale`), which the model's PD
+its 12 actions are joint-angle offsets from the standing pose (times `lowlevel.action_scale`), which the model's PD
 servos track at 200 Hz (every 5 ms physics step), capped at the Go1's motor torques (`go1_constants`).
 
-Observation (45 numbers, the robot's own senses, body frame): angular velocity (3, x0.25) | gravity direction (3)
-| command (vx, vy, yaw rate) (3) | joint angles minus the standing pose (12) | joint velocities (12, x0.05) | the
-last actions (12). The critic also gets the body-frame linear velocity (3), which the robot cannot measure.
+Observation: the robot's own senses (`go1.proprioception`, 45 numbers, shared with the go1 backend that later runs
+the policy under the pushing levels). The critic also gets the body-frame linear velocity (3), which the robot
+cannot measure. Servo gains and the action scale are the go1 backend's (`conf/lowlevel/go1.yaml`).
 
 Commands are drawn per env from `level.commands` at reset and every `resample_s`; a `zero_fraction` of them are
 "stand still". Evaluation draws them from `level.eval_commands`, the range the mid level commands.
@@ -27,32 +27,28 @@ import torch
 from mujoco import batch as mjb
 
 from mapush.envs.common import EpisodeOutcomes
+from mapush.errors import BadInput
 from mapush.lowlevel import go1_constants as go1
+from mapush.lowlevel.go1 import proprioception, rotate_into_body
 from mapush.lowlevel.go1_model import standalone_spec
 from mapush.rewards.manager import RewardManager
-
-
-def rotate_into_body(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """World vectors v (E, 3) in the body frame of unit quaternions (E, 4) = (w, x, y, z): R(q)^T v."""
-    w, xyz = quat[:, :1], quat[:, 1:]
-    t = 2.0 * np.cross(xyz, v)
-    return v - w * t + np.cross(xyz, t)
 
 
 class LocomotionEnv:
     """E Go1s on flat ground, each tracking its own velocity command; see the module docstring."""
 
     EXCEPTIONS = ("diverged", "fall")
-    ANG_VEL_SCALE, JOINT_VEL_SCALE = 0.25, 0.05  # observation scales
 
     def __init__(self, cfg: dict, num_envs: int | None = None, evaluation: bool = False):
+        self.validate(cfg)
         self.cfg = cfg
         self.command_ranges = cfg["level"]["eval_commands" if evaluation else "commands"]
         level, sim = cfg["level"], cfg["sim"]
         self.num_envs = E = num_envs or cfg["num_envs"]
         self.num_agents = self.policy_agents = 1
         self.num_actions = 12
-        self.model = standalone_spec(level["kp"], level["kd"], sim["timestep"]).compile()
+        self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
+        self.model = standalone_spec(self.robot["kp"], self.robot["kd"], sim["timestep"]).compile()
         self.decimation = sim["decimation"]
         self.dt = float(self.model.opt.timestep) * self.decimation
         self.frame_dt = self.dt
@@ -141,8 +137,6 @@ class LocomotionEnv:
         self.ang_vel = torch.from_numpy(self.qvel[:, 3:6].astype(np.float32))  # a free joint's is body-frame
         down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), (self.num_envs, 3))
         self.gravity = torch.from_numpy(rotate_into_body(quat, down).astype(np.float32))
-        self.joint_pos = torch.from_numpy((self.qpos[:, 7:] - self.default_pose).astype(np.float32))
-        self.joint_vel = torch.from_numpy(self.qvel[:, 6:].astype(np.float32))
         self.torques = torch.from_numpy(self.actuator_force.astype(np.float32))
         feet = torch.from_numpy(self.geom_xpos[:, self.feet].astype(np.float32))  # (E, 4, 3)
         previous = getattr(self, "feet_xyz", feet)
@@ -157,28 +151,21 @@ class LocomotionEnv:
 
     # ----------------------------------------------------------------------------------------------------------
     def observations(self) -> dict[str, torch.Tensor]:
-        """`policy` (E, 1, 45) and `critic` (E, 1, 48); layout in the module docstring."""
-        policy = torch.cat(
-            [
-                self.ang_vel * self.ANG_VEL_SCALE,
-                self.gravity,
-                self.commands,
-                self.joint_pos,
-                self.joint_vel * self.JOINT_VEL_SCALE,
-                self.actions,
-            ],
-            -1,
-        )
-        policy = torch.nan_to_num(policy, 0.0, 0.0, 0.0)
+        """`policy` (E, 1, 45): `go1.proprioception`, as the go1 backend computes it; `critic` (E, 1, 48) adds the
+        body-frame linear velocity."""
+        sensed = proprioception(
+            self.qpos, self.qvel, self.commands.numpy(), self.actions.numpy(), self.default_pose
+        ).astype(np.float32)
+        policy = torch.nan_to_num(torch.from_numpy(sensed), 0.0, 0.0, 0.0)
         critic = torch.cat([policy, torch.nan_to_num(self.lin_vel, 0.0, 0.0, 0.0)], -1)
         return {"policy": policy.unsqueeze(1), "critic": critic.unsqueeze(1)}
 
     def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
         """One 20 ms policy step. actions: (E, 1, 12). Returns obs, rewards (E, 1), terminated, truncated, info."""
-        level = self.cfg["level"]
         self.last_actions = self.actions
-        self.actions = actions.reshape(self.num_envs, 12).clamp(-level["action_clip"], level["action_clip"])
-        self.ctrl[:] = self.default_pose + level["action_scale"] * self.actions.numpy().astype(np.float64)
+        clip = self.robot["action_clip"]
+        self.actions = actions.reshape(self.num_envs, 12).clamp(-clip, clip)
+        self.ctrl[:] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
         diverged = torch.zeros(self.num_envs, dtype=torch.bool)
         try:
             self.batch.step(nstep=self.decimation)
@@ -253,5 +240,7 @@ class LocomotionEnv:
 
     @staticmethod
     def validate(cfg: dict) -> None:
-        """Check the reward terms before anything is built."""
+        """Check the robot and the reward terms before anything is built."""
+        if cfg["lowlevel"]["name"] != "go1":
+            raise BadInput(f"level=low trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1")
         RewardManager(cfg["reward"]["terms"])

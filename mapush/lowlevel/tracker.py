@@ -83,8 +83,9 @@ class Tracker:
             "tilt": np.zeros(pose.shape[:2]),
         }
 
-    def command(self, ctrl: np.ndarray, yaw: np.ndarray, cmd: np.ndarray) -> None:
+    def command(self, ctrl: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, cmd: np.ndarray) -> None:
         """Write body-frame commands (E, A, 3) = (vx, vy, yaw rate) as world-frame actuator targets into ctrl."""
+        yaw = qpos[:, self.qpos_idx[:, 2]]
         c, s = np.cos(yaw), np.sin(yaw)
         world = np.stack([c * cmd[..., 0] - s * cmd[..., 1], s * cmd[..., 0] + c * cmd[..., 1], cmd[..., 2]], -1)
         ctrl[:, self.ctrl_idx] = world

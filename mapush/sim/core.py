@@ -65,8 +65,7 @@ class BatchSim:
         Returns:
             Env ids whose simulation failed (diverged); their state is left for the caller to reset. Shape: (n,).
         """
-        yaw = self.qpos[:, self.lowlevel.qpos_idx[:, 2]]
-        self.lowlevel.command(self.ctrl, yaw, commands.numpy().astype(np.float64))
+        self.lowlevel.command(self.ctrl, self.qpos, self.qvel, commands.numpy().astype(np.float64))
         try:
             self.batch.step(nstep=self.decimation)
         except mjb.SimulationError as err:
