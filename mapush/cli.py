@@ -181,6 +181,46 @@ def _sweep(overrides: list[str]) -> None:
         raise typer.Exit(code)
 
 
+@app.command(context_settings=PASS_THROUGH)
+def calibrate(
+    ctx: typer.Context,
+    tasks: str = typer.Option("cuboid,tblock,cylinder", "--tasks", help="Objects to push, comma-separated."),
+    steps: str = typer.Option("0.25,0.5", "--steps", help="Step command sizes (m/s, rad/s), comma-separated."),
+    settle: float = typer.Option(1.0, "--settle", help="Seconds of standing before each step."),
+    duration: float = typer.Option(3.0, "--duration", help="Seconds each step command is held."),
+    out: Path | None = typer.Option(None, "--out", help="Output dir (default runs/calibrate/<time>)."),
+    config: Path | None = typer.Option(None, "--config", help="The tracker config to update (default conf's)."),
+) -> None:
+    """Fit the tracker's lag and force limit to the legged Go1's step responses, free and pushing each object.
+
+    Overrides choose the robot measured: `lowlevel.policy=RUN/policy.pt` (default: lowlevel=go1, shipped policy).
+    """
+    import datetime
+
+    from mapush.calibrate import calibrate as run_calibration
+    from mapush.calibrate import default_config_path
+    from mapush.config import group_options
+
+    task_list = [t for t in tasks.split(",") if t]
+    unknown = sorted(set(task_list) - set(group_options("task")))
+    if unknown or not task_list:
+        raise BadInput(f"--tasks {tasks!r}: unknown {unknown}; valid: {', '.join(group_options('task'))}")
+    step_sizes = [float(x) for x in steps.split(",") if x]
+    if not step_sizes or min(step_sizes) <= 0:
+        raise BadInput(f"--steps {steps!r} must be positive sizes, e.g. 0.25,0.5")
+    if settle < 0 or duration <= 0:
+        raise BadInput(f"--settle {settle} / --duration {duration}: valid: settle >= 0, duration > 0 seconds")
+    overrides = list(ctx.args)
+    reference = overrides if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
+    stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    out_dir = out or Path("runs") / "calibrate" / stamp
+    config_path = config or default_config_path()
+    summary = run_calibration(reference, task_list, step_sizes, settle, duration, out_dir, config_path)
+    fitted = ", ".join(f"{k} {v:.4g}" for k, v in summary["fitted"].items())
+    print(f"fitted {fitted} -> {config_path}")
+    print(out_dir)
+
+
 @app.command()
 def tables(
     runs: Path = typer.Option(Path("runs"), "--runs", help="Where to look for sweep jobs (result.json files)."),

@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 import torch
+from omegaconf import OmegaConf
 
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
@@ -155,3 +156,48 @@ def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_ru
     *_, info = env.step(torch.zeros(3, env.num_agents, 3))
     assert info["episode_end"]["exception"][0]
     assert env.EXCEPTIONS[int(info["episode_end"]["exception_kind"][0])] == "robot_tilt"
+
+
+def test_the_lag_fit_recovers_a_known_first_order_response():
+    from mapush.calibrate import LAG_GRID, fit_lag
+
+    dt, lag = 0.02, 0.3
+    t = (np.arange(100) + 1) * dt
+    commanded = np.array([0.25, 0.5])
+    response = commanded[:, None] * (1 - np.exp(-t / lag))
+    nearest = LAG_GRID[np.abs(LAG_GRID - lag).argmin()]
+    assert fit_lag(response, commanded, dt) == pytest.approx(nearest)
+
+
+def test_calibrating_the_tracker_against_itself_recovers_its_lag(cli, tmp_path):
+    from mapush.calibrate import default_config_path
+
+    config = tmp_path / "tracker.yaml"
+    shutil.copy(default_config_path(), config)
+    proc = cli("calibrate", "lowlevel=tracker", "--tasks", "cuboid", "--duration", "1.5", "--settle", "0",
+               "--out", tmp_path / "cal", "--config", config)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    fitted = json.loads((tmp_path / "cal" / "calibration.json").read_text())["fitted"]
+    assert fitted["lag"] == pytest.approx(0.1, rel=0.1) and fitted["yaw_lag"] == pytest.approx(0.1, rel=0.1)
+    assert (tmp_path / "cal" / "calibration.png").stat().st_size > 0
+
+
+def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli, low_run, tmp_path):
+    from mapush.calibrate import default_config_path, physical_bounds
+
+    config = tmp_path / "tracker.yaml"
+    shutil.copy(default_config_path(), config)
+    before = config.read_text().splitlines()
+    proc = cli("calibrate", f"lowlevel.policy={low_run / 'policy.pt'}", "--tasks", "cuboid", "--duration", "1",
+               "--settle", "0.2", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    fitted = json.loads((tmp_path / "cal" / "calibration.json").read_text())["fitted"]
+    assert set(fitted) == {"lag", "yaw_lag", "max_force"}
+    for key, value in fitted.items():
+        low, high = physical_bounds()[key]
+        assert low <= value <= high
+    after = config.read_text().splitlines()
+    changed = [a for b, a in zip(before, after, strict=True) if a != b]
+    assert sorted(line.split(":")[0] for line in changed) == ["lag", "max_force", "yaw_lag"]
+    assert all("calibrated against go1" in line for line in changed)
+    assert OmegaConf.load(config).lag == pytest.approx(fitted["lag"], rel=1e-3)
