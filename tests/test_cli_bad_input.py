@@ -36,7 +36,7 @@ def test_unknown_task(train_bad):
 
 
 def test_unknown_level(train_bad):
-    assert_bad_input(train_bad("level=low"), "'low'", "high", "mid")
+    assert_bad_input(train_bad("level=flying"), "'flying'", "high", "low", "mid")
 
 
 def test_unknown_reward_term(train_bad):

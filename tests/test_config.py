@@ -19,7 +19,7 @@ def test_every_option_of_a_group_composes(group):
 
 def test_group_options_are_the_yaml_files():
     assert group_options("critic") == ["global", "local"]
-    assert group_options("lowlevel") == ["tracker"]
+    assert group_options("lowlevel") == ["go1", "tracker"]
 
 
 def test_default_config_is_mid_cuboid_two_agents_mappo():
