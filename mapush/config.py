@@ -101,9 +101,11 @@ def git_state() -> dict:
 
 
 def new_run_dir(cfg: DictConfig) -> Path:
-    """A fresh `runs/<level>/<task>/<time>__seed<seed>` dir (suffixed if that name is taken)."""
+    """A fresh `runs/<level>/<subject>/<time>__seed<seed>` dir (suffixed if that name is taken). The subject is
+    the task, or what the level names instead (`level.subject`: the low level's robot)."""
     stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
-    base = Path(cfg.train.run_root) / cfg.level.name / cfg.task.name / f"{stamp}__seed{cfg.seed}"
+    subject = cfg.level.get("subject") or cfg.task.name
+    base = Path(cfg.train.run_root) / cfg.level.name / subject / f"{stamp}__seed{cfg.seed}"
     run_dir, k = base, 1
     while run_dir.exists():
         run_dir, k = base.with_name(f"{base.name}_{k}"), k + 1
