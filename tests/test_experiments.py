@@ -187,7 +187,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert "| Cuboid | S.R. (%) \u2191 |" in md
     assert "75.0 \u00b1 5.0 (77.5 \u00b1 3.0)" in md
     assert "0.65 \u00b1 0.05 (0.66 \u00b1 0.04)" in md
-    assert "10.0 \u00b1 0.0 (0.0 \u00b1 0.0)" in md  # SA on the cylinder, one seed
+    assert "10.0 (1 seed) (0.0 \u00b1 0.0)" in md  # SA on the cylinder, one seed: no std
     assert "\u2014 (4.5 \u00b1 0.3)" in md  # SA on the cuboid: no job
     assert "- sa / cuboid / success_rate: no finished job" in md
     assert "- hl / cuboid / success_rate: no finished job" in md
@@ -216,7 +216,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
 
     scale = (out / "scale_quick.md").read_text()
     assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 |" in scale
-    assert "| 1 | 20.0 \u00b1 0.0 | 0.90 \u00b1 0.00 |" in scale
+    assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) |" in scale
     assert "- 2 robots: no finished job" in scale
     assert (out / "scale_quick.png").stat().st_size > 1000
 

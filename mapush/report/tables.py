@@ -34,7 +34,9 @@ class Cell:
     def text(self) -> str:
         digits = self.digits
         ours = MISSING
-        if self.values:
+        if len(self.values) == 1:  # no spread to show: say it is one seed rather than print a std of 0
+            ours = f"{self.values[0]:.{digits}f} (1 seed)"
+        elif self.values:
             ours = f"{np.mean(self.values):.{digits}f} \u00b1 {np.std(self.values):.{digits}f}"
         if self.paper is None:
             return ours
