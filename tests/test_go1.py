@@ -13,13 +13,17 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
+from mapush.config import CONF_DIR
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
 from mapush.sim.scene import build_scene, robot_prefixes
 
+GAINS = {k: OmegaConf.load(CONF_DIR / "lowlevel" / "go1.yaml")[k] for k in ("kp", "kd")}
+"""The servo gains the go1 backend and level=low use."""
+
 
 def test_the_model_compiles_alone_with_the_published_masses_ranges_and_torque_limits():
-    model = standalone_spec().compile()
+    model = standalone_spec(**GAINS).compile()
     assert model.nu == 12 and model.nq == 7 + 12
     assert sum(model.body_mass) == pytest.approx(12.03, abs=0.01)  # trunk 5.204 + 4 legs x 1.707 kg
     for name in go1.JOINT_NAMES:
@@ -35,7 +39,7 @@ def test_the_model_compiles_alone_with_the_published_masses_ranges_and_torque_li
 
 
 def test_the_mjcf_it_writes_compiles_to_the_same_model():
-    spec = go1_spec()
+    spec = go1_spec(**GAINS)
     again = mujoco.MjSpec.from_string(spec.to_xml()).compile()
     original = spec.compile()
     assert (again.nq, again.nu, again.nbody) == (original.nq, original.nu, original.nbody)
@@ -47,7 +51,7 @@ class Go1Robot:
 
     @staticmethod
     def robot_spec():
-        return go1_spec()
+        return go1_spec(**GAINS)
 
 
 @pytest.mark.parametrize("agents", [1, 2, 3, 4])
@@ -63,7 +67,7 @@ def test_the_model_attaches_by_prefix_into_a_pushing_scene(cfg_for, agents):
 
 
 def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
-    model = standalone_spec().compile()
+    model = standalone_spec(**GAINS).compile()
     data = mujoco.MjData(model)
     pose = np.array(go1.default_joint_angles())
     data.qpos[7:] = pose

@@ -68,6 +68,22 @@ def pose_frame(env) -> dict[str, torch.Tensor]:
     }
 
 
+def episode_end(env, done: torch.Tensor, diverged: torch.Tensor, failed: torch.Tensor) -> dict[str, torch.Tensor]:
+    """Per-env outcomes of the episodes ending now (`done`), as every env reports them in `info["episode_end"]`.
+
+    Args:
+        failed: the envs whose episode ends as an exception (a failure).
+    """
+    return {
+        "done": done.clone(),
+        "success": env.success & done,
+        "exception": failed & done,
+        "diverged": diverged & done,
+        "exception_kind": torch.where(done, env.exception_kind, -1),
+        "time_s": env.episode_time_s,
+    }
+
+
 class EpisodeOutcomes:
     """A ring buffer of the latest episodes' successes, and the `info` an env step returns about finished ones."""
 

@@ -29,6 +29,7 @@ from mapush.envs.common import (
     EpisodeOutcomes,
     base_exception_flags,
     divergence,
+    episode_end,
     pose_frame,
     read_sim_state,
     validate_push_config,
@@ -333,15 +334,7 @@ class HighPushEnv:
         )
 
     def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
-        end = {
-            "done": done.clone(),
-            "success": self.success & done,
-            "exception": self.failed & done,
-            "diverged": diverged & done,
-            "exception_kind": torch.where(done, self.exception_kind, -1),
-            "planner_failure": self.plan_failed & done,
-            "time_s": self.episode_time_s,
-        }
+        end = {**episode_end(self, done, diverged, self.failed), "planner_failure": self.plan_failed & done}
         return self.outcomes.info(end, self.episode_sums, {"exception_decisions": self.exception_decisions})
 
     def scene_frame(self) -> dict[str, torch.Tensor]:

@@ -26,7 +26,7 @@ import numpy as np
 import torch
 from mujoco import batch as mjb
 
-from mapush.envs.common import EpisodeOutcomes
+from mapush.envs.common import EpisodeOutcomes, episode_end
 from mapush.errors import BadInput
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import proprioception, rotate_into_body
@@ -105,7 +105,7 @@ class LocomotionEnv:
         qpos[:, 2] = go1.standing_height() + 0.02
         yaw = self.rng.uniform(-math.pi, math.pi, size=n)
         qpos[:, 3], qpos[:, 6] = np.cos(yaw / 2), np.sin(yaw / 2)
-        qpos[:, 7:] = self.default_pose * self.rng.uniform(0.9, 1.1, size=(n, 12))
+        qpos[:, 7:] = self.default_pose * self.rng.uniform(*self.cfg["level"]["randomize"]["joint_scale"], size=(n, 12))
         self.qpos[ids] = qpos
         self.qvel[ids] = 0.0
         self.ctrl[ids] = self.default_pose
@@ -227,15 +227,7 @@ class LocomotionEnv:
 
     def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
         steps = self.episode_step.clamp(min=1).float()
-        end = {
-            "done": done.clone(),
-            "success": self.success & done,
-            "exception": self.exception & done,
-            "diverged": diverged & done,
-            "exception_kind": torch.where(done, self.exception_kind, -1),
-            "time_s": self.episode_time_s,
-            "velocity_error": self.velocity_error_sum / steps,
-        }
+        end = {**episode_end(self, done, diverged, self.exception), "velocity_error": self.velocity_error_sum / steps}
         return self.outcomes.info(end, self.episode_sums, {"velocity_error": end["velocity_error"]})
 
     @staticmethod

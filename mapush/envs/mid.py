@@ -17,6 +17,7 @@ from mapush.envs.common import (
     EpisodeOutcomes,
     base_exception_flags,
     divergence,
+    episode_end,
     pose_frame,
     read_sim_state,
     validate_push_config,
@@ -162,12 +163,4 @@ class MidPushEnv:
 
     def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
         """Outcomes of the episodes ending now: per-env `episode_end` and the `log` means rsl-rl records."""
-        end = {
-            "done": done.clone(),
-            "success": self.success & done,
-            "exception": self.exception & done,
-            "diverged": diverged & done,
-            "exception_kind": torch.where(done, self.exception_kind, -1),
-            "time_s": self.episode_time_s,
-        }
-        return self.outcomes.info(end, self.episode_sums)
+        return self.outcomes.info(episode_end(self, done, diverged, self.exception), self.episode_sums)

@@ -41,10 +41,6 @@ JOINT_RANGE = {"hip": (-0.863, 0.863), "thigh": (-0.686, 4.501), "calf": (-2.818
 TORQUE_LIMIT = {"hip": 23.7, "thigh": 23.7, "calf": 35.55}  # N m
 VELOCITY_LIMIT = {"hip": 30.1, "thigh": 30.1, "calf": 20.06}  # rad/s
 
-KP, KD = 40.0, 1.0
-"""Joint servo gains, N m/rad and N m s/rad. Walk-these-ways used 20 and 0.5 in Isaac Gym; in MuJoCo (5 ms
-implicit-fast steps, 0.01 kg m^2 armature) 20 lets a standing Go1 sink 9 cm in 2 s, 40 holds it within 1.5 cm."""
-
 DEFAULT_POSE = {"hip": 0.1, "thigh": 0.8, "calf": -1.5}
 """Standing joint angles, rad (hip abduction outward: +0.1 on the left legs, -0.1 on the right)."""
 

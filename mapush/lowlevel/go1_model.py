@@ -16,8 +16,8 @@ GEOM = mujoco.mjtGeom
 
 
 def go1_spec(
-    kp: float = go1.KP,
-    kd: float = go1.KD,
+    kp: float,
+    kd: float,
     armature: float = 0.01,
     foot_friction: float = 1.0,
     rgba: tuple[float, float, float, float] = (0.2, 0.4, 0.9, 1.0),
@@ -103,7 +103,7 @@ def _add_leg(trunk, leg: str, armature: float, foot_friction: float) -> None:
     )
 
 
-def standalone_spec(kp: float = go1.KP, kd: float = go1.KD, timestep: float = 0.005) -> mujoco.MjSpec:
+def standalone_spec(kp: float, kd: float, timestep: float = 0.005) -> mujoco.MjSpec:
     """A Go1 on a flat floor (names unprefixed), for tests and single-robot checks."""
     spec = go1_spec(kp, kd)
     spec.option.timestep = timestep
