@@ -124,14 +124,20 @@ def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], comman
 def load_run_config(run_dir: Path) -> DictConfig:
     """The composed config a run was made with; BadInput if `run_dir` is not a run.
 
-    Root settings added to mapush after the run was made (e.g. `log`) take their current defaults.
+    Root settings, and settings of the run's level, added to mapush after the run was made (e.g. `log`,
+    `level.eval_push_velocity`) take their current defaults; everything the run saved stays as it was.
     """
     path = Path(run_dir) / "config.yaml"
     if not Path(run_dir).is_dir() or not path.is_file():
         raise BadInput(f"{str(run_dir)!r} is not a run dir (no config.yaml); valid: a dir that `mapush train` made")
     root = OmegaConf.load(CONF_DIR / "config.yaml")
     root.pop("defaults")
-    return OmegaConf.merge(root, OmegaConf.load(path))
+    run = OmegaConf.load(path)
+    level_file = CONF_DIR / "level" / f"{OmegaConf.select(run, 'level.name', default='')}.yaml"
+    if level_file.is_file():
+        level = OmegaConf.to_container(OmegaConf.load(level_file), resolve=False)
+        root.level = {key: value for key, value in level.items() if key not in run.level and key != "defaults"}
+    return OmegaConf.merge(root, run)
 
 
 SWAPPABLE_GROUPS = ("task", "level", "lowlevel", "reward")

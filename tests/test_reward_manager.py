@@ -37,6 +37,14 @@ def test_weights_multiply_each_term_and_the_terms_add_up():
     assert total.numpy() == pytest.approx(np.array([[19.05, 19.05], [-15.55, -15.55]]), abs=1e-4)
 
 
+def test_positive_only_clips_the_shaping_terms_at_zero_before_adding_the_terminal_ones():
+    # shaping: env 0 0.5 * 18.1 = 9.05, env 1 0.5 * (-21.1) -> clipped to 0; the terminal exception then adds -5
+    terms = {"progress": PROGRESS, "exception": {**EXCEPTION, "terminal": True}}
+    total, parts = RewardManager(terms, positive_only=True).compute(stand_in())
+    assert total.numpy() == pytest.approx(np.array([[9.05, 9.05], [-5.0, -5.0]]), abs=1e-4)
+    assert parts["progress"][1].tolist() == pytest.approx([-10.55, -10.55])  # the parts stay unclipped for the logs
+
+
 def test_a_null_term_is_dropped():
     manager = RewardManager({"reached": REACHED, "exception": None})
     assert list(manager.terms) == ["reached"]

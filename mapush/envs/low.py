@@ -9,7 +9,8 @@ the policy under the pushing levels). The critic also gets the body-frame linear
 cannot measure. Servo gains and the action scale are the go1 backend's (`conf/lowlevel/go1.yaml`).
 
 Commands are drawn per env from `level.commands` at reset and every `resample_s`; a `zero_fraction` of them are
-"stand still". Evaluation draws them from `level.eval_commands`, the range the mid level commands.
+"stand still". Evaluation draws them from `level.eval_commands`, the range the mid level commands, and pushes with
+`level.eval_push_velocity` (0 by default: the tracking target is on flat ground, undisturbed).
 
 Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, and a random push (a
 change of the trunk's horizontal velocity) every `push_interval_s`. A fall (trunk too low, tilted too far, or
@@ -42,8 +43,9 @@ class LocomotionEnv:
     def __init__(self, cfg: dict, num_envs: int | None = None, evaluation: bool = False):
         self.validate(cfg)
         self.cfg = cfg
-        self.command_ranges = cfg["level"]["eval_commands" if evaluation else "commands"]
         level, sim = cfg["level"], cfg["sim"]
+        self.command_ranges = level["eval_commands" if evaluation else "commands"]
+        self.push_velocity = level["eval_push_velocity"] if evaluation else level["randomize"]["push_velocity"]
         self.num_envs = E = num_envs or cfg["num_envs"]
         self.num_agents = self.policy_agents = 1
         self.num_actions = 12
@@ -64,7 +66,7 @@ class LocomotionEnv:
         self.generator = torch.Generator().manual_seed(int(cfg["seed"]))
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
-        self.rewards = RewardManager(cfg["reward"]["terms"])
+        self.rewards = RewardManager(cfg["reward"]["terms"], cfg["reward"]["positive_only"])
         self.episode_step = torch.zeros(E, dtype=torch.long)
         self.commands = torch.zeros(E, 3)
         self.actions = torch.zeros(E, 12)
@@ -215,9 +217,9 @@ class LocomotionEnv:
         rand = self.cfg["level"]["randomize"]
         every = max(1, round(rand["push_interval_s"] / self.dt))
         due = ((self.episode_step % every) == 0).numpy()
-        if rand["push_velocity"] > 0 and due.any():
+        if self.push_velocity > 0 and due.any():
             ids = np.flatnonzero(due)
-            self.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * rand["push_velocity"]
+            self.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * self.push_velocity
 
     def _resample_commands(self) -> None:
         every = max(1, round(self.command_ranges["resample_s"] / self.dt))
