@@ -54,6 +54,9 @@ def evaluate(
     episodes: int | None = typer.Option(None, "--episodes", help="Trials per seed (default: eval.episodes)."),
     seeds: str | None = typer.Option(None, "--seeds", help="Comma-separated seeds (default: eval.seeds)."),
     live: bool = typer.Option(False, "--live", help="Also stream env 0 to Foxglove (ws://127.0.0.1:log.live_port)."),
+    name: str = typer.Option(
+        "", "--name", help="Keep this evaluation apart (e.g. with overrides): eval_NAME.json, episodes_NAME.mcap."
+    ),
 ) -> None:
     """Evaluate deterministically; writes eval.json (success rate, completion time) and episodes.mcap."""
     import json
@@ -63,7 +66,9 @@ def evaluate(
     seed_list = _int_list(seeds, "--seeds") if seeds else None
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    out = run_eval(target, episodes, seed_list, list(ctx.args), live=live)
+    if name and not name.replace("-", "").replace("_", "").isalnum():
+        raise BadInput(f"--name {name!r} is not a plain name; valid: letters, digits, '-' and '_'")
+    out = run_eval(target, episodes, seed_list, list(ctx.args), live=live, name=name)
     result = json.loads(out.read_text())
     runs = f"{result['episodes']} episodes x seeds {result['seeds']}"
     if "velocity_error" in result:  # the low level

@@ -82,10 +82,13 @@ def test_eval_writes_success_rate_and_completion_time(cli, run_copy):
     assert str(run_copy / "eval.json") in proc.stdout
 
 
-def test_eval_takes_episodes_and_seeds(cli, run_copy):
-    proc = cli("eval", run_copy / "model_0.pt", "--episodes", "3", "--seeds", "4,5")
+def test_eval_takes_episodes_seeds_and_a_name(cli, run_copy):
+    before = sorted(p.name for p in run_copy.iterdir())
+    proc = cli("eval", run_copy / "model_0.pt", "--episodes", "3", "--seeds", "4,5", "--name", "other_seeds")
     assert proc.returncode == 0, proc.stderr
-    result = json.loads((run_copy / "eval.json").read_text())
+    added = sorted(set(p.name for p in run_copy.iterdir()) - set(before))
+    assert added == ["episodes_other_seeds.mcap", "eval_other_seeds.json"]  # the run's own eval.json is left alone
+    result = json.loads((run_copy / "eval_other_seeds.json").read_text())
     assert (result["episodes"], result["seeds"], len(result["per_seed"])) == (3, [4, 5], 2)
     assert result["checkpoint"].endswith("model_0.pt")
 

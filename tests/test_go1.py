@@ -132,10 +132,31 @@ def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_
     assert "velocity error" in evaluated.stdout
 
 
-def test_lowlevel_go1_without_a_policy_is_one_clear_line(cli, tmp_path):
-    proc = cli("train", "lowlevel=go1", "debug=smoke", f"train.run_root={tmp_path}")
+def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(low_run, tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("ship", Path(__file__).parents[1] / "tools" / "ship_go1_policy.py")
+    ship = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ship)
+    out = tmp_path / "go1"
+    result = json.loads(ship.ship(low_run, episodes=2, seeds=[0], out=out).read_text())
+    checkpoint = torch.load(out / "model_1.pt", weights_only=False)
+    assert set(checkpoint) == {"actor_state_dict", "iter", "infos"}  # no critic, no optimizer
+    assert result["checkpoint"] == str(out / "model_1.pt") and 0.0 <= result["fall_rate"] <= 1.0
+    assert json.loads((out / "meta.json").read_text())["shipped_from"]["run"] == low_run.name
+    assert (out / "policy.pt").read_bytes() == (low_run / "policy.pt").read_bytes()
+
+
+def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):
+    proc = cli(
+        "train",
+        "lowlevel=go1",
+        f"lowlevel.policy={tmp_path / 'nowhere.pt'}",
+        "debug=smoke",
+        f"train.run_root={tmp_path}",
+    )
     assert proc.returncode == 2
-    assert "no pretrained Go1 policy is shipped yet" in proc.stderr and "mapush train level=low" in proc.stderr
+    assert "nowhere.pt' does not exist" in proc.stderr and "mapush train level=low" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and not list(tmp_path.glob("mid/**/config.yaml"))
 
 

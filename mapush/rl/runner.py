@@ -99,7 +99,10 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
             f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
             f"{obs_dim}-d; valid: the task and agent count it was trained with{hint}"
         )
-    runner.load(str(path), map_location=runner.device)
+    # A shipped policy's checkpoint keeps the actor alone (tools/ship_go1_policy.py): load what is there.
+    parts = {"actor": True, "iteration": True, "rnd": "rnd_state_dict" in data}
+    parts |= {"critic": "critic_state_dict" in data, "optimizer": "optimizer_state_dict" in data}
+    runner.load(str(path), load_cfg=parts, map_location=runner.device)
     return int(data["iter"])
 
 
