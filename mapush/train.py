@@ -21,7 +21,6 @@ from mapush.errors import BadInput
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import repair_in_place
 from mapush.logging.metrics import next_free_path
-from mapush.logging.scene import SceneLayout
 from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.runner import (
@@ -157,7 +156,7 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
-    if interval > 0 and hasattr(env, "scene_frame"):  # the pushing levels; the low level has no scene log yet
+    if interval > 0:
         frames_per_step = round(env.dt / env.frame_dt)  # the high level records every mid-level step
         every_steps = interval * int(cfg["algo"]["num_steps_per_env"]) * frames_per_step
         recorder = attach_episode_recorder(cfg, env, Path(next_free_path(str(run_dir / TRAIN_EPISODES))), every_steps)
@@ -171,7 +170,7 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
 
 def attach_episode_recorder(cfg: dict, env, path: Path, every_steps: int) -> EpisodeRecorder:
     """Record env 0's next whole episode after every `every_steps` env steps into `path` (training episodes)."""
-    recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), env.EXCEPTIONS)
+    recorder = EpisodeRecorder(path, env.scene_layout(cfg), list(env.rewards.terms), env.EXCEPTIONS)
     recorder.watch([0], env.frame_dt, "training", from_start=False, every_steps=every_steps)
     env.recorders.append(recorder)
     return recorder

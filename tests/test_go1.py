@@ -130,6 +130,7 @@ def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_
     result = json.loads((run_dir / "eval.json").read_text())
     assert 0.0 <= result["fall_rate"] <= 1.0 and 0.0 <= result["velocity_error"] < 5.0
     assert "velocity error" in evaluated.stdout
+    assert (run_dir / "episodes.mcap").stat().st_size > 0  # the Go1 walking, for Foxglove
 
 
 def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(low_run, tmp_path):
@@ -145,6 +146,7 @@ def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(lo
     assert result["checkpoint"] == str(out / "model_1.pt") and 0.0 <= result["fall_rate"] <= 1.0
     assert json.loads((out / "meta.json").read_text())["shipped_from"]["run"] == low_run.name
     assert (out / "policy.pt").read_bytes() == (low_run / "policy.pt").read_bytes()
+    assert sorted(p.name for p in out.iterdir()) == sorted([*ship.RUN_FILES, "model_1.pt", "eval.json"])
 
 
 def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):

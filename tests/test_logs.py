@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import jsonschema
+import numpy as np
 import pytest
 import torch
 from conftest import MAPUSH, composed
@@ -568,3 +569,28 @@ def test_the_hl_scene_shows_each_robots_navigation_goal(tmp_path, cfg_for):
     discs = next(e for e in scene.entities if e.id == "robot_goals").cylinders
     drawn = [[d.pose.position.x, d.pose.position.y] for d in discs]
     assert torch.allclose(torch.tensor(drawn), goals, atol=1e-5)
+
+
+def test_the_low_level_scene_draws_every_go1_geom_where_the_simulation_has_it(tmp_path, cfg_for):
+    from mapush.envs.low import LocomotionEnv
+
+    cfg = cfg_for("level=low", "level.episode_length_s=0.2")
+    env = LocomotionEnv(cfg, num_envs=2, evaluation=True)
+    recorder = EpisodeRecorder(tmp_path / "e.mcap", env.scene_layout(cfg), list(env.rewards.terms), env.EXCEPTIONS)
+    recorder.watch([1], env.dt, "test", from_start=True)
+    env.recorders.append(recorder)
+    env.step(torch.zeros(2, 1, 12))
+    feet = env.geom_xpos[1, np.sort(env.feet)].copy()  # drawn in geom order
+    trunk = env.qpos[1, :3].copy()
+    for _ in range(9):  # the rest of the 0.2 s episode
+        env.step(torch.zeros(2, 1, 12))
+    recorder.close()
+    topics = by_topic(read_messages(tmp_path / "e.mcap"))
+    assert len(topics["/scene"]) == 10 and len(topics["/episode"]) == 1
+    robot = next(e for e in topics["/scene"][0].entities if e.id == "robot0")
+    assert (len(robot.cubes), len(robot.cylinders), len(robot.spheres)) == (1, 12, 4)  # trunk, legs, feet
+    drawn_feet = [[s.pose.position.x, s.pose.position.y, s.pose.position.z] for s in robot.spheres]
+    assert np.allclose(drawn_feet, feet, atol=1e-6)
+    tf = topics["/tf"][0].transforms[0]
+    assert [tf.translation.x, tf.translation.y, tf.translation.z] == pytest.approx(trunk.tolist(), abs=1e-6)
+    assert len(topics["/commands"][0]["vx"]) == 1

@@ -36,6 +36,7 @@ from mapush.envs.common import (
 )
 from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
+from mapush.logging.scene import SceneLayout
 from mapush.lowlevel import BACKENDS
 from mapush.planning.geometry import corners, point_distance, polygon_gap, rectangles, transform
 from mapush.planning.paths import nearest_index, random_curved_paths
@@ -336,6 +337,11 @@ class HighPushEnv:
     def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
         end = {**episode_end(self, done, diverged, self.failed), "planner_failure": self.plan_failed & done}
         return self.outcomes.info(end, self.episode_sums, {"exception_decisions": self.exception_decisions})
+
+    @staticmethod
+    def scene_layout(cfg: dict) -> SceneLayout:
+        """What the episode logs draw of this level (the arena, object and robots of `cfg`)."""
+        return SceneLayout.from_config(cfg)
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env: poses, subgoal, target, obstacles (corners) and the reference path."""

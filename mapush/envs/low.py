@@ -29,8 +29,9 @@ from mujoco import batch as mjb
 
 from mapush.envs.common import EpisodeOutcomes, episode_end
 from mapush.errors import BadInput
+from mapush.logging.go1_scene import Go1Layout, quat_multiply
 from mapush.lowlevel import go1_constants as go1
-from mapush.lowlevel.go1 import proprioception, rotate_into_body
+from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
 from mapush.lowlevel.go1_model import standalone_spec
 from mapush.rewards.manager import RewardManager
 
@@ -60,6 +61,7 @@ class LocomotionEnv:
         b = self.batch
         self.qpos, self.qvel, self.ctrl = b.bind("qpos"), b.bind("qvel"), b.bind("ctrl")
         self.geom_xpos, self.actuator_force = b.bind("geom_xpos"), b.bind("actuator_force")
+        self.body_xquat = b.bind("xquat")
         self.feet = np.array([self.model.geom(name).id for name in go1.FOOT_NAMES])
         self.trunk_geom = self.model.geom("trunk_box").id
         self.default_pose = np.array(go1.default_joint_angles())
@@ -79,7 +81,8 @@ class LocomotionEnv:
         self.velocity_error_sum = torch.zeros(E)
         self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
         self.outcomes = EpisodeOutcomes()
-        self.recorders = []
+        self.recorders = []  # EpisodeRecorder / LiveView (mapush.logging.episodes) watching some envs
+        self.drawn_geoms = np.array(Go1Layout.from_model(self.model).geom_ids)
         self.reset(np.arange(E))
 
     def _randomize_once(self) -> None:
@@ -190,10 +193,33 @@ class LocomotionEnv:
             self.episode_sums[name] += torch.nan_to_num(value, 0.0, 0.0, 0.0)
         self.velocity_error_sum += self.velocity_error()
         done = terminated | truncated
+        for recorder in self.recorders:
+            recorder.capture(self, self.commands.unsqueeze(1), reward, parts, done)
         info = self._episode_info(done, diverged)
         self._resample_commands()
         self.reset(done.nonzero().flatten().numpy())
         return self.observations(), reward, terminated, truncated, info
+
+    @staticmethod
+    def scene_layout(cfg: dict) -> Go1Layout:
+        """What the episode logs draw of this level: the Go1's geoms."""
+        return Go1Layout.from_config(cfg)
+
+    def scene_frame(self) -> dict[str, torch.Tensor]:
+        """What a viewer draws of every env now (before resets): the Go1's geom poses, its trunk, and its commanded
+        and actual planar velocity in the world frame (`Go1Layout.scene`)."""
+        quat = self.qpos[:, 3:7]
+        bodies = self.model.geom_bodyid[self.drawn_geoms]
+        command = np.concatenate([self.commands[:, :2].numpy(), np.zeros((self.num_envs, 1))], -1)
+        frame = {
+            "geom_xpos": self.geom_xpos[:, self.drawn_geoms],
+            "geom_xquat": quat_multiply(self.body_xquat[:, bodies], self.model.geom_quat[self.drawn_geoms]),
+            "trunk_xyz": self.qpos[:, 0:3],
+            "trunk_quat": quat,
+            "command_xy": rotate_into_world(quat, command)[:, :2],
+            "velocity_xy": self.qvel[:, 0:2],
+        }
+        return {name: torch.from_numpy(np.ascontiguousarray(value)) for name, value in frame.items()}
 
     def velocity_error(self) -> torch.Tensor:
         """|commanded - actual| planar velocity, m/s (E,)."""

@@ -23,6 +23,7 @@ from mapush.envs.common import (
     validate_push_config,
 )
 from mapush.envs.resets import sample_mid_layout
+from mapush.logging.scene import SceneLayout
 from mapush.lowlevel import BACKENDS
 from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
@@ -111,6 +112,11 @@ class MidPushEnv:
     def episode_time_s(self) -> torch.Tensor:
         """Simulated time of each env's episode, s."""
         return self.episode_step.float() * self.dt
+
+    @staticmethod
+    def scene_layout(cfg: dict) -> SceneLayout:
+        """What the episode logs draw of this level (the arena, object and robots of `cfg`)."""
+        return SceneLayout.from_config(cfg)
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): poses (E, ...) and the subgoal (E, 2)."""

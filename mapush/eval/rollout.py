@@ -17,7 +17,6 @@ import torch
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.logging.episodes import EpisodeRecorder, LiveView
-from mapush.logging.scene import SceneLayout
 from mapush.rewards.manager import RewardManager
 from mapush.rl.runner import checkpoints, load_checkpoint, obs_width
 
@@ -152,9 +151,7 @@ def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
     """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
     from mapush.train import env_class
 
-    if not hasattr(env_class(cfg), "scene_frame"):  # the low level has no scene log yet
-        return []
-    layout, terms = SceneLayout.from_config(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
+    layout, terms = env_class(cfg).scene_layout(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
     exceptions = env_class(cfg).EXCEPTIONS
     recorders: list = []
     if int(cfg["log"]["eval_episodes"]) > 0:

@@ -3,7 +3,8 @@
 Topics (one message per env step unless said otherwise):
 
 - `/scene` (`foxglove.SceneUpdate`): arena, object, robots with their heading, subgoal, and for the high level the
-  target, obstacles and reference path (see `mapush.logging.scene`);
+  target, obstacles and reference path (see `mapush.logging.scene`); for the low level, the Go1's own geoms and
+  its commanded and actual velocity (`mapush.logging.go1_scene`);
 - `/tf` (`foxglove.FrameTransforms`): world -> object, world -> robot<i>;
 - `/commands` (`mapush.RobotCommands`, JSON): per-robot `vx`, `vy`, `yaw_rate` arrays, index = robot;
 - `/rewards` (`mapush.RewardTerms`, JSON): `total` and one array per reward term, index = robot;
@@ -30,7 +31,7 @@ from foxglove.messages import Log, LogLevel
 
 import foxglove
 from foxglove import Channel, Context, Schema
-from mapush.logging.scene import SceneLayout, frame_transforms, scene_update, timestamp
+from mapush.logging.scene import timestamp
 
 CHUNK_BYTES = 256 * 1024  # small chunks: what a kill leaves is recoverable up to the last flush (libraries.md 3.5)
 EPISODE_GAP_NS = 1_000_000_000
@@ -43,9 +44,13 @@ def _json_schema(title: str, properties: dict) -> Schema:
 
 
 class EpisodeChannels:
-    """The episode topics in one Foxglove context (a file, a live server, or both)."""
+    """The episode topics in one Foxglove context (a file, a live server, or both).
 
-    def __init__(self, context: Context, layout: SceneLayout, term_names: list[str]):
+    `layout` draws the scene: a pushing level's `SceneLayout` or the low level's `Go1Layout` (the env class's
+    `scene_layout(cfg)`); both give `scene(frame, t_ns)`, `transforms(frame, t_ns)` and `num_agents`.
+    """
+
+    def __init__(self, context: Context, layout, term_names: list[str]):
         self.layout = layout
         self.scene = SceneUpdateChannel("/scene", context=context)
         self.tf = FrameTransformsChannel("/tf", context=context)
@@ -82,8 +87,8 @@ class EpisodeChannels:
 
     def log_step(self, row: dict[str, np.ndarray], t_ns: int) -> None:
         """Scene, transforms, commands and rewards of one env at one step."""
-        self.scene.log(scene_update(self.layout, row, t_ns), log_time=t_ns)
-        self.tf.log(frame_transforms(self.layout, row, t_ns), log_time=t_ns)
+        self.scene.log(self.layout.scene(row, t_ns), log_time=t_ns)
+        self.tf.log(self.layout.transforms(row, t_ns), log_time=t_ns)
         cmd = row["commands"]
         self.commands.log(
             {"vx": cmd[:, 0].tolist(), "vy": cmd[:, 1].tolist(), "yaw_rate": cmd[:, 2].tolist()}, log_time=t_ns
@@ -149,7 +154,7 @@ class EpisodeRecorder:
     it records the next episode to begin after every N env steps.
     """
 
-    def __init__(self, path: Path, layout: SceneLayout, term_names: list[str], exception_names: tuple[str, ...]):
+    def __init__(self, path: Path, layout, term_names: list[str], exception_names: tuple[str, ...]):
         self.path = Path(path)
         self.layout, self.term_names, self.exception_names = layout, term_names, exception_names
         self.context: Context | None = None
@@ -218,7 +223,7 @@ class EpisodeRecorder:
 class LiveView:
     """Streams one env's steps to Foxglove over a websocket on 127.0.0.1, paced to real time."""
 
-    def __init__(self, layout: SceneLayout, term_names: list[str], exception_names: tuple[str, ...], port: int):
+    def __init__(self, layout, term_names: list[str], exception_names: tuple[str, ...], port: int):
         self.context = Context()
         self.server = foxglove.start_server(name="mapush", host="127.0.0.1", port=port, context=self.context)
         self.channels = EpisodeChannels(self.context, layout, term_names)

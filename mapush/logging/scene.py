@@ -87,6 +87,12 @@ class SceneLayout:
             obstacle_height=float(cfg["level"]["obstacles"]["size"][2]) if "obstacles" in cfg["level"] else 0.0,
         )
 
+    def scene(self, frame: dict[str, np.ndarray], t_ns: int) -> SceneUpdate:
+        return scene_update(self, frame, t_ns)
+
+    def transforms(self, frame: dict[str, np.ndarray], t_ns: int) -> FrameTransforms:
+        return frame_transforms(self, frame, t_ns)
+
 
 def timestamp(t_ns: int) -> Timestamp:
     return Timestamp(sec=t_ns // 1_000_000_000, nsec=t_ns % 1_000_000_000)
@@ -100,7 +106,7 @@ def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw: float = 0.0) -> P
     return Pose(position=Vector3(x=x, y=y, z=z), orientation=_yaw_quaternion(yaw))
 
 
-def _entity(ts: Timestamp, frame: str, entity_id: str, **primitives) -> SceneEntity:
+def scene_entity(ts: Timestamp, frame: str, entity_id: str, **primitives) -> SceneEntity:
     # lifetime 0 = until replaced by the next update of the same id
     return SceneEntity(timestamp=ts, frame_id=frame, id=entity_id, lifetime=Duration(sec=0, nsec=0), **primitives)
 
@@ -159,9 +165,9 @@ def scene_update(layout: SceneLayout, frame: dict[str, np.ndarray], t_ns: int) -
     length, width, height = layout.robot_size
     cubes, cylinders = _object_parts(layout)
     entities = [
-        _entity(ts, WORLD, "arena", cubes=_walls(layout)),
-        _entity(ts, OBJECT, "object", cubes=cubes, cylinders=cylinders),
-        _entity(ts, WORLD, "subgoal", cylinders=[_disc(*frame["subgoal_xy"], layout.success_distance, SUBGOAL)]),
+        scene_entity(ts, WORLD, "arena", cubes=_walls(layout)),
+        scene_entity(ts, OBJECT, "object", cubes=cubes, cylinders=cylinders),
+        scene_entity(ts, WORLD, "subgoal", cylinders=[_disc(*frame["subgoal_xy"], layout.success_distance, SUBGOAL)]),
     ]
     for i in range(layout.num_agents):
         color = ROBOT_COLORS[i % len(ROBOT_COLORS)]
@@ -174,25 +180,25 @@ def scene_update(layout: SceneLayout, frame: dict[str, np.ndarray], t_ns: int) -
             head_diameter=0.12,
             color=HEADING,
         )
-        entities.append(_entity(ts, robot_frame(i), robot_frame(i), cubes=[body], arrows=[heading]))
+        entities.append(scene_entity(ts, robot_frame(i), robot_frame(i), cubes=[body], arrows=[heading]))
     if "target_xy" in frame:
         entities.append(
-            _entity(ts, WORLD, "target", cylinders=[_disc(*frame["target_xy"], layout.success_distance, TARGET)])
+            scene_entity(ts, WORLD, "target", cylinders=[_disc(*frame["target_xy"], layout.success_distance, TARGET)])
         )
     if "obstacles" in frame:
         cubes = _obstacle_cubes(frame["obstacles"], layout.obstacle_height)
-        entities.append(_entity(ts, WORLD, "obstacles", cubes=cubes))
+        entities.append(scene_entity(ts, WORLD, "obstacles", cubes=cubes))
     if "robot_goal_xy" in frame:  # H+L: each robot's navigation goal, in its colour
         discs = [
             _disc(*xy, GOAL_RADIUS, ROBOT_COLORS[i % len(ROBOT_COLORS)]) for i, xy in enumerate(frame["robot_goal_xy"])
         ]
-        entities.append(_entity(ts, WORLD, "robot_goals", cylinders=discs))
+        entities.append(scene_entity(ts, WORLD, "robot_goals", cylinders=discs))
     if "path" in frame and len(frame["path"]) > 1:
         points = [Point3(x=float(x), y=float(y), z=MARKER_HEIGHT) for x, y in frame["path"]]
         line = LinePrimitive(
             type=LinePrimitiveLineType.LineStrip, pose=_pose(), thickness=0.05, points=points, color=PATH
         )
-        entities.append(_entity(ts, WORLD, "path", lines=[line]))
+        entities.append(scene_entity(ts, WORLD, "path", lines=[line]))
     return SceneUpdate(entities=entities)
 
 
