@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 import torch
 
@@ -52,15 +54,17 @@ def test_observations_and_rewards_are_finite_while_pushing(env):
 
 
 def test_commands_move_the_robots_at_the_scaled_speed(env):
-    # action 1 is scaled to 0.5 m/s; with a 0.1 s lag the robot covers 0.5 * (0.4 - 0.1 (1 - e^-4)) = 0.151 m
+    # action 1 is scaled to 0.5 m/s; with the tracker's first-order lag T the robot covers 0.5 (0.4 - T (1 - e^-0.4/T))
     # in 20 steps (0.4 s) of full forward command (the median: a robot may bump into the object)
+    lag = env.cfg["lowlevel"]["lag"]
+    expected = 0.5 * (0.4 - lag * (1 - math.exp(-0.4 / lag)))
     start = env.robot_xy.clone()
     actions = torch.zeros(4, 2, 3)
     actions[..., 0] = 1.0
     for _ in range(20):
         env.step(actions)
     moved = torch.linalg.vector_norm(env.robot_xy - start, dim=-1)
-    assert moved.median().item() == pytest.approx(0.151, abs=0.005)
+    assert moved.median().item() == pytest.approx(expected, abs=0.005)
 
 
 def test_actions_are_clipped_to_one(make_env):
