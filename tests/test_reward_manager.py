@@ -66,6 +66,12 @@ def test_missing_params_raise_bad_input_naming_the_wanted_ones():
         RewardManager({"progress": {**PROGRESS, "params": None}})
 
 
+def test_a_param_with_a_default_may_be_left_out():
+    # high-level runs saved before path_following took `point` still load, with the behaviour they trained with
+    manager = RewardManager({"follow": {"func": "mapush.rewards.terms:path_following", "weight": 0.5}})
+    assert manager.terms["follow"][2] == {}
+
+
 def test_extra_params_raise_bad_input():
     with pytest.raises(BadInput, match="beta"):
         RewardManager({"progress": {**PROGRESS, "params": {"alpha": 200.0, "beta": 1.0}}})

@@ -47,8 +47,11 @@ class RewardManager:
                 continue
             func = resolve_term(term["func"])
             params = dict(term.get("params") or {})
-            wanted = [p for p in inspect.signature(func).parameters][1:]
-            if sorted(wanted) != sorted(params):
+            signature = inspect.signature(func).parameters
+            wanted = list(signature)[1:]
+            # a param with a default may be left out: the default keeps runs saved before it existed as they were
+            required = {p for p in wanted if signature[p].default is inspect.Parameter.empty}
+            if not required <= set(params) <= set(wanted):
                 raise BadInput(
                     f"reward term {name!r} ({term['func']}) takes params {wanted}, config gives {sorted(params)}"
                 )

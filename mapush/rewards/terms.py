@@ -117,9 +117,9 @@ PATH_FOLLOWERS = ("subgoal", "object")
 """What `path_following` measures against the path: the chosen subgoal (paper) or the object (H+L, no subgoal)."""
 
 
-def path_following(env, point: str) -> torch.Tensor:
+def path_following(env, point: str = "subgoal") -> torch.Tensor:
     """1 / (1 + d), d from the chosen subgoal (or the object, `point="object"`) to the nearest sampled point of
-    the reference path."""
+    the reference path. The configs name `point`; the default is for runs saved before it existed."""
     if point not in PATH_FOLLOWERS:
         raise BadInput(f"path_following point {point!r}; valid: {', '.join(PATH_FOLLOWERS)}")
     xy = env.subgoal_xy if point == "subgoal" else env.object_xy
