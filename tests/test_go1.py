@@ -143,7 +143,7 @@ def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(lo
     result = json.loads(ship.ship(low_run, episodes=2, seeds=[0], out=out).read_text())
     checkpoint = torch.load(out / "model_1.pt", weights_only=False)
     assert set(checkpoint) == {"actor_state_dict", "iter", "infos"}  # no critic, no optimizer
-    assert result["checkpoint"] == str(out / "model_1.pt") and 0.0 <= result["fall_rate"] <= 1.0
+    assert Path(result["checkpoint"]).resolve() == out / "model_1.pt" and 0.0 <= result["fall_rate"] <= 1.0
     assert json.loads((out / "meta.json").read_text())["shipped_from"]["run"] == low_run.name
     assert (out / "policy.pt").read_bytes() == (low_run / "policy.pt").read_bytes()
     assert sorted(p.name for p in out.iterdir()) == sorted([*ship.RUN_FILES, "model_1.pt", "eval.json"])
@@ -230,3 +230,21 @@ def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli
     assert sorted(line.split(":")[0] for line in changed) == ["lag", "max_force", "yaw_lag"]
     assert all("calibrated against go1" in line for line in changed)
     assert OmegaConf.load(config).lag == pytest.approx(fitted["lag"], rel=1e-3)
+
+
+def test_the_shipped_policy_walks_forward_at_half_a_metre_per_second_within_the_tracking_bound(cfg_for):
+    """5 s of (0.5 m/s, 0, 0) on flat ground, no pushes: the shipped policy tracks it within the 0.1 m/s target."""
+    from mapush.envs.low import LocomotionEnv
+    from mapush.lowlevel.go1 import load_locomotion_policy
+
+    env = LocomotionEnv(cfg_for("level=low", "level.randomize.push_velocity=0"), num_envs=4, evaluation=True)
+    policy = load_locomotion_policy(None)  # lowlevel.policy: null, the shipped one
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    obs, errors = env.observations(), []
+    with torch.inference_mode():
+        for step in range(round(5.0 / env.dt)):
+            obs, _, terminated, _, _ = env.step(policy(obs["policy"][:, 0]).unsqueeze(1))
+            assert not terminated.any(), f"a fall at {step * env.dt:.2f} s"
+            if step * env.dt >= 1.0:  # after a second to get going
+                errors.append(env.velocity_error())
+    assert torch.stack(errors).mean() <= 0.1

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -44,7 +45,8 @@ def ship(run_dir: Path, episodes: int, seeds: list[int], out: Path = PRETRAINED_
     meta = json.loads((out / "meta.json").read_text())
     meta["shipped_from"] = {"run": run_dir.name, "checkpoint": last.name}
     (out / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
-    return evaluate(out, episodes, seeds, ["log.eval_episodes=0"])  # no episodes.mcap in the package
+    shipped = Path(os.path.relpath(out))  # eval.json names the checkpoint without this machine's absolute path
+    return evaluate(shipped, episodes, seeds, ["log.eval_episodes=0"])  # no episodes.mcap in the package
 
 
 def main() -> None:
