@@ -149,6 +149,25 @@ def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(lo
     assert sorted(p.name for p in out.iterdir()) == sorted([*ship.RUN_FILES, "model_1.pt", "eval.json"])
 
 
+def test_the_sim_to_sim_table_compares_a_tracker_run_with_itself_on_go1s(smoke_run, low_run, tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("s2s", Path(__file__).parents[1] / "tools" / "sim2sim.py")
+    sim2sim = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(sim2sim)
+    run = tmp_path / "run"
+    shutil.copytree(smoke_run, run)
+    row = sim2sim.check(run, episodes=2, seeds=[0], go1_overrides=[f"lowlevel.policy={low_run / 'policy.pt'}"])
+    go1 = json.loads((run / "eval_sim2sim_go1.json").read_text())
+    tracker = json.loads((run / "eval_sim2sim_tracker.json").read_text())
+    assert row["drop"] == pytest.approx(tracker["success_rate"] - go1["success_rate"])
+    assert (
+        row["go1"]["success_rate"] == go1["success_rate"]
+        and (run / "eval.json").exists() == (smoke_run / "eval.json").exists()
+    )
+    assert "| run |" in sim2sim.markdown([row], 2, [0], "a policy")
+
+
 def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):
     proc = cli(
         "train",

@@ -63,7 +63,9 @@ def main() -> None:
     seeds = [int(s) for s in args.seeds.split(",")]
     rows = [check(run, args.episodes, seeds, overrides) for run in args.runs]
     policy = next((o.split("=", 1)[1] for o in overrides if o.startswith("lowlevel.policy=")), None)
-    policy = policy or f"the shipped policy, {json.loads((PRETRAINED_RUN / 'meta.json').read_text())['shipped_from']}"
+    if policy is None:
+        source = json.loads((PRETRAINED_RUN / "meta.json").read_text())["shipped_from"]
+        policy = f"the shipped policy: run {source['run']}, {source['checkpoint']}"
     args.out.parent.mkdir(parents=True, exist_ok=True)
     table = markdown(rows, args.episodes, seeds, policy)
     args.out.with_suffix(".md").write_text(table)
