@@ -256,7 +256,7 @@ def test_the_shipped_policy_walks_forward_at_half_a_metre_per_second_within_the_
     from mapush.envs.low import LocomotionEnv
     from mapush.lowlevel.go1 import load_locomotion_policy
 
-    env = LocomotionEnv(cfg_for("level=low", "level.randomize.push_velocity=0"), num_envs=4, evaluation=True)
+    env = LocomotionEnv(cfg_for("level=low"), num_envs=4, evaluation=True)  # evaluation: no pushes
     policy = load_locomotion_policy(None)  # lowlevel.policy: null, the shipped one
     env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
     obs, errors = env.observations(), []

@@ -4,7 +4,7 @@ Each run is evaluated twice with `mapush eval`'s code on the same seeds and epis
 (`eval_sim2sim_tracker.json`) and with `lowlevel=go1` (`eval_sim2sim_go1.json`, the shipped locomotion policy
 unless `lowlevel.policy=...` is given). The table (Markdown and JSON) is generated from those two files.
 
-    python tools/sim2sim.py RUN_DIR [RUN_DIR ...] [--episodes 50] [--seeds 0,1] [--out results/sim2sim]
+    python tools/sim2sim.py RUN_DIR [RUN_DIR ...] [--episodes N] [--seeds 0,1] [--out results/sim2sim]
                             [lowlevel.policy=RUN/policy.pt]
 """
 
@@ -26,6 +26,8 @@ def check(run: Path, episodes: int, seeds: list[int], go1_overrides: list[str]) 
         "run": str(run),
         "task": tracker["task"],
         "num_agents": tracker["num_agents"],
+        "episodes": tracker["episodes"],
+        "seeds": tracker["seeds"],
         "tracker": {k: tracker[k] for k in ("success_rate", "success_rate_std", "completion_time")},
         "go1": {k: go1[k] for k in ("success_rate", "success_rate_std", "completion_time")},
         "go1_exception_rate": sum(s["exception_rate"] for s in go1["per_seed"]) / len(go1["per_seed"]),
@@ -56,20 +58,21 @@ def markdown(rows: list[dict], episodes: int, seeds: list[int], policy: str) -> 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path, help="mid-level run dirs trained with lowlevel=tracker")
-    parser.add_argument("--episodes", type=int, default=50)
-    parser.add_argument("--seeds", default="0,1")
+    parser.add_argument("--episodes", type=int, default=None, help="trials per seed (default: the run's eval.episodes)")
+    parser.add_argument("--seeds", default=None, help="comma-separated (default: the run's eval.seeds)")
     parser.add_argument("--out", type=Path, default=Path("results/sim2sim"), help="writes OUT.md and OUT.json")
     args, overrides = parser.parse_known_args()
-    seeds = [int(s) for s in args.seeds.split(",")]
+    seeds = [int(s) for s in args.seeds.split(",")] if args.seeds else None
     rows = [check(run, args.episodes, seeds, overrides) for run in args.runs]
+    episodes, seeds = rows[0]["episodes"], rows[0]["seeds"]
     policy = next((o.split("=", 1)[1] for o in overrides if o.startswith("lowlevel.policy=")), None)
     if policy is None:
         source = json.loads((PRETRAINED_RUN / "meta.json").read_text())["shipped_from"]
         policy = f"the shipped policy: run {source['run']}, {source['checkpoint']}"
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    table = markdown(rows, args.episodes, seeds, policy)
+    table = markdown(rows, episodes, seeds, policy)
     args.out.with_suffix(".md").write_text(table)
-    record = {"episodes": args.episodes, "seeds": seeds, "policy": policy, "rows": rows}
+    record = {"episodes": episodes, "seeds": seeds, "policy": policy, "rows": rows}
     args.out.with_suffix(".json").write_text(json.dumps(record, indent=2) + "\n")
     print(table)
 

@@ -29,11 +29,16 @@ from mujoco import batch as mjb
 
 from mapush.envs.common import EpisodeOutcomes, episode_end
 from mapush.errors import BadInput
-from mapush.logging.go1_scene import Go1Layout, quat_multiply
+from mapush.logging.go1_scene import Go1Layout, drawn_geom_ids, quat_multiply
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
 from mapush.lowlevel.go1_model import standalone_spec
 from mapush.rewards.manager import RewardManager
+
+
+def locomotion_model(cfg: dict) -> mujoco.MjModel:
+    """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep."""
+    return standalone_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], cfg["sim"]["timestep"]).compile()
 
 
 class LocomotionEnv:
@@ -51,7 +56,7 @@ class LocomotionEnv:
         self.num_agents = self.policy_agents = 1
         self.num_actions = 12
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
-        self.model = standalone_spec(self.robot["kp"], self.robot["kd"], sim["timestep"]).compile()
+        self.model = locomotion_model(cfg)
         self.decimation = sim["decimation"]
         self.dt = float(self.model.opt.timestep) * self.decimation
         self.frame_dt = self.dt
@@ -82,7 +87,7 @@ class LocomotionEnv:
         self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
         self.outcomes = EpisodeOutcomes()
         self.recorders = []  # EpisodeRecorder / LiveView (mapush.logging.episodes) watching some envs
-        self.drawn_geoms = np.array(Go1Layout.from_model(self.model).geom_ids)
+        self.drawn_geoms = np.array(drawn_geom_ids(self.model))
         self.reset(np.arange(E))
 
     def _randomize_once(self) -> None:
@@ -203,7 +208,7 @@ class LocomotionEnv:
     @staticmethod
     def scene_layout(cfg: dict) -> Go1Layout:
         """What the episode logs draw of this level: the Go1's geoms."""
-        return Go1Layout.from_config(cfg)
+        return Go1Layout.from_model(locomotion_model(cfg))
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): the Go1's geom poses, its trunk, and its commanded

@@ -69,6 +69,11 @@ def _arrow(origin: np.ndarray, planar: np.ndarray, color: Color) -> ArrowPrimiti
     )
 
 
+def drawn_geom_ids(model: mujoco.MjModel) -> tuple[int, ...]:
+    """The geoms a scene draws, in id order: all but the floor plane."""
+    return tuple(g for g in range(model.ngeom) if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE)
+
+
 @dataclass(frozen=True)
 class Go1Layout:
     """The Go1's drawable geoms (MuJoCo type, size, colour), fixed for a run; the floor is left out."""
@@ -79,19 +84,12 @@ class Go1Layout:
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel) -> Go1Layout:
-        ids = tuple(g for g in range(model.ngeom) if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE)
+        ids = drawn_geom_ids(model)
         geoms = tuple(
             (int(model.geom_type[g]), tuple(map(float, model.geom_size[g])), tuple(map(float, model.geom_rgba[g])))
             for g in ids
         )
         return cls(geoms=geoms, geom_ids=ids)
-
-    @classmethod
-    def from_config(cls, cfg: dict) -> Go1Layout:
-        from mapush.lowlevel.go1_model import standalone_spec
-
-        robot = cfg["lowlevel"]
-        return cls.from_model(standalone_spec(robot["kp"], robot["kd"], cfg["sim"]["timestep"]).compile())
 
     def scene(self, frame: dict[str, np.ndarray], t_ns: int) -> SceneUpdate:
         """The Go1 at one instant. frame: `geom_xpos` (G, 3) and `geom_xquat` (G, 4) of the drawn geoms,
