@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 from pathlib import Path
 
@@ -103,6 +104,17 @@ def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_p
     result = json.loads((run_dir / "eval.json").read_text())
     assert result["per_seed"][0]["planner_failure_rate"] == 0.0
     assert 0.0 <= result["success_rate"] <= 1.0 and result["timeout_s"] == 1.0
+    # the result table's row of this run: its eval, the path-following reference on the same maps, its budget
+    spec = importlib.util.spec_from_file_location("high_table", Path(__file__).parents[1] / "tools" / "high_table.py")
+    table = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(table)
+    row = table.row(run_dir, 2, [0])
+    assert row["learned"] == json.loads((run_dir / "eval.json").read_text())
+    assert row["budget"] == {"num_envs": 4, "iterations": 2, "decisions": 2 * 4 * 8, "env_steps": 2 * 4 * 8 * 25}
+    reference = row["path_following"]
+    assert reference["checkpoint"] == "constant action [0.0, 0.0]" and reference["per_seed"][0]["episodes"] == 2
+    assert reference["timeout_s"] == 1.0
+    assert "| paper (Ours) | | | 77.5 +- 3.0 % | 0.66 +- 0.04 |" in table.markdown([row])
 
 
 @pytest.mark.parametrize(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from mapush.envs.resets import goal_clearance, sample_high_layout, sample_obstacles, start_clearance
+from mapush.envs.resets import goal_clearance, sample_high_layout, sample_obstacles, start_clearance, train_corridor
 from mapush.errors import BadInput
 from mapush.plan import random_map
 from mapush.planning.geometry import corners, point_distance, polygon_gap
@@ -64,8 +65,10 @@ def test_resample_keeps_ends_and_spacing():
     assert torch.allclose(out, torch.tensor([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 2.0]]))
 
 
-@pytest.mark.parametrize("training", [True, False])
-def test_obstacles_never_overlap_the_start_the_goal_or_each_other(high_cfg, training):
+@pytest.mark.parametrize("training,clear_path", [(True, True), (True, False), (False, True)])
+def test_obstacles_never_overlap_the_start_the_goal_or_each_other(high_cfg, training, clear_path):
+    high_cfg = copy.deepcopy(high_cfg)
+    high_cfg["level"]["obstacles"]["train_clear_path"] = clear_path
     gen = torch.Generator().manual_seed(0)
     n = 200
     layout = sample_high_layout(gen, n, high_cfg)
@@ -85,9 +88,17 @@ def test_obstacles_never_overlap_the_start_the_goal_or_each_other(high_cfg, trai
     k = obstacles.shape[1]
     pair = torch.linalg.vector_norm(centres.unsqueeze(2) - centres.unsqueeze(1), dim=-1) + torch.eye(k) * 1e9
     assert (pair >= 2 * half_diag).all()  # footprints never overlap
-    if training:  # within the 4 m strip around the path
+    if training:
         near = point_distance(path, torch.cat([centres, torch.zeros(n, k, 3)], -1)).amin(1)  # (n, K)
-        assert (near[placed] <= 2.0 + 0.05).all()
+        if clear_path:  # beside the corridor the planner would keep: footprints clear of it, centres in the strip
+            corridor = train_corridor(high_cfg)
+            assert corridor == pytest.approx(0.85 + high_cfg["level"]["planner"]["margin_m"], abs=0.01)
+            gap = point_distance(resample(path, 512), obstacles).amin(1)
+            assert (gap[placed] >= corridor - 0.02).all()
+            assert (near[placed] <= corridor + 0.5 + 2.0 + 0.05).all()
+        else:  # the paper's 4 m strip around the path, which may cross the obstacles
+            assert (near[placed] <= 2.0 + 0.05).all()
+            assert (point_distance(path, obstacles).amin(1)[placed] < 0.5).any()
 
 
 def test_planned_paths_avoid_the_inflated_obstacles_and_have_the_waypoint_count(high_cfg):

@@ -11,12 +11,21 @@ from __future__ import annotations
 import argparse
 import json
 
-import numpy as np
 import torch
 
 from mapush.config import compose_config, to_plain
-from mapush.eval.rollout import first_episodes
+from mapush.eval.rollout import first_episodes, summarize
 from mapush.train import build
+
+
+def constant_action(cfg: dict, action: list[float], episodes: int, seeds: list[int]) -> dict:
+    """The eval record (as `mapush eval` writes it) of a high-level config (`cfg`) driven by one action."""
+    fixed = torch.tensor(action, dtype=torch.float32)
+    per_seed = []
+    for seed in seeds:
+        env, runner = build({**cfg, "seed": seed, "num_envs": episodes}, None, 0, evaluation=True)  # as mapush eval
+        per_seed.append(first_episodes(env, runner.env, lambda obs: fixed.expand(obs.batch_size[0], 2), seed))
+    return summarize(cfg, f"constant action {fixed.tolist()}", episodes, seeds, per_seed)
 
 
 def main() -> None:
@@ -27,16 +36,12 @@ def main() -> None:
     parser.add_argument("--seeds", default="0,1")
     parser.add_argument("overrides", nargs="*", help="Hydra overrides of the high-level config")
     args = parser.parse_intermixed_args()
-    action = torch.tensor([float(x) for x in args.action.split(",")])
-    per_seed = []
-    for seed in (int(s) for s in args.seeds.split(",")):
-        overrides = ["level=high", f"mid={args.mid}", f"seed={seed}", f"num_envs={args.episodes}", *args.overrides]
-        env, runner = build(to_plain(compose_config(overrides)), None, 0, evaluation=True)  # as mapush eval
-        per_seed.append(first_episodes(env, runner.env, lambda obs: action.expand(obs.batch_size[0], 2), seed))
-    sr = np.array([r["success_rate"] for r in per_seed])
-    ct = np.array([r["completion_time"] for r in per_seed])
-    print(json.dumps({"action": action.tolist(), "per_seed": per_seed}, indent=2))
-    print(f"action {action.tolist()}: S.R. {100 * sr.mean():.1f} +- {100 * sr.std():.1f} %, C.T. {ct.mean():.3f}")
+    cfg = to_plain(compose_config(["level=high", f"mid={args.mid}", *args.overrides]))
+    action = [float(x) for x in args.action.split(",")]
+    result = constant_action(cfg, action, args.episodes, [int(s) for s in args.seeds.split(",")])
+    print(json.dumps(result, indent=2))
+    sr, sr_std, ct = result["success_rate"], result["success_rate_std"], result["completion_time"]
+    print(f"action {action}: S.R. {100 * sr:.1f} +- {100 * sr_std:.1f} %, C.T. {ct:.3f}")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,8 @@ import math
 import torch
 
 from mapush.errors import BadInput
-from mapush.planning.geometry import parked
+from mapush.planning.geometry import parked, point_distance
+from mapush.planning.paths import resample
 from mapush.sim.shapes import object_radius
 
 MAX_REJECTION_ROUNDS = 32
@@ -144,8 +145,10 @@ def sample_obstacles(
 ) -> torch.Tensor:
     """Obstacle blocks of `n` episodes, (n, K, 5) rows of (x, y, yaw, size x, size y).
 
-    With a `path` (training) the centres lie in a strip of `train_strip_width` around it (paper App. A); without
-    one (evaluation) they are uniform between the start and goal areas, across the span of both areas' y ranges
+    With a `path` (training) the centres lie in a strip of `train_strip_width` around it (paper App. A). With
+    `train_clear_path` the strip is split to the two sides of a corridor the path keeps clear, as wide as the one
+    an OMPL path keeps at evaluation (`train_corridor`), so training paths look like the planned ones. Without a
+    path (evaluation) they are uniform between the start and goal areas, across the span of both areas' y ranges
     widened by `test_margin` on each side. No obstacle overlaps the
     start layout, the target or another obstacle; one that finds no room in `MAX_REJECTION_ROUNDS` draws is parked
     outside the arena (absent).
@@ -163,34 +166,53 @@ def sample_obstacles(
     y_hi = min(max(level["start_area"]["y"][1], level["goal_area"]["y"][1]) + spec["test_margin"], half_room)
     rows = parked(n, count, 1.0)
     rows[..., 3:] = size
+    corridor = train_corridor(cfg) if path is not None else 0.0
+    if corridor:
+        dense = resample(path, 4 * path.shape[1])  # the clearance check's samples, about 0.1 m apart
     for k in range(count):
         todo = torch.arange(n)
         for _ in range(MAX_REJECTION_ROUNDS):
             m = len(todo)
             if path is not None:
-                centre = _in_strip(gen, path[todo], spec["train_strip_width"])
+                beside = corridor + min(spec["size"][:2]) / 2 if corridor else 0.0  # the nearest a centre can be
+                centre = _in_strip(gen, path[todo], spec["train_strip_width"], beside)
             else:
                 centre = torch.stack([uniform(gen, x_lo, x_hi, m), uniform(gen, y_lo, y_hi, m)], -1)
             ok = (centre.abs() <= half_room).all(-1)
             ok &= torch.linalg.vector_norm(centre - start[todo], dim=-1) >= keep_start
             ok &= torch.linalg.vector_norm(centre - target[todo], dim=-1) >= keep_goal
+            if corridor:
+                block = torch.cat([centre, uniform(gen, 0.0, math.pi / 2, m).unsqueeze(-1), size.expand(m, 2)], -1)
+                ok &= point_distance(dense[todo], block.unsqueeze(1)).amin(1).squeeze(-1) >= corridor
             if k:
                 ok &= (torch.linalg.vector_norm(rows[todo, :k, :2] - centre.unsqueeze(1), dim=-1) >= apart).all(-1)
             placed = todo[ok]
             rows[placed, k, :2] = centre[ok]
-            rows[placed, k, 2] = uniform(gen, 0.0, math.pi / 2, len(placed))
+            rows[placed, k, 2] = block[ok, 2] if corridor else uniform(gen, 0.0, math.pi / 2, len(placed))
             todo = todo[~ok]
             if len(todo) == 0:
                 break
     return rows
 
 
-def _in_strip(gen: torch.Generator, path: torch.Tensor, width: float) -> torch.Tensor:
-    """A point within width / 2 of a random interior point of each path (m, P, 2), across the path's direction."""
+def train_corridor(cfg: dict) -> float:
+    """Half-width (m) of the corridor a training path keeps free of obstacle footprints: what the planner keeps
+    around its paths (the object's radius plus `planner.margin_m`) with `train_clear_path`, else 0."""
+    level = cfg["level"]
+    if not level["obstacles"]["train_clear_path"]:
+        return 0.0
+    return object_radius(cfg["task"]["object"]) + level["planner"]["margin_m"]
+
+
+def _in_strip(gen: torch.Generator, path: torch.Tensor, width: float, offset: float = 0.0) -> torch.Tensor:
+    """A point beside a random interior point of each path (m, P, 2), across the path's direction: within width / 2
+    of it, or with an `offset`, between `offset` and `offset + width / 2` from it on either side."""
     m, points = path.shape[0], path.shape[1]
     idx = torch.randint(1, points - 1, (m,), generator=gen)
     rows = torch.arange(m)
     tangent = path[rows, idx + 1] - path[rows, idx - 1]
     tangent = tangent / torch.linalg.vector_norm(tangent, dim=-1, keepdim=True).clamp(min=1e-9)
     normal = torch.stack([-tangent[:, 1], tangent[:, 0]], -1)
-    return path[rows, idx] + normal * uniform(gen, -width / 2, width / 2, m).unsqueeze(-1)
+    lateral = uniform(gen, -width / 2, width / 2, m)
+    lateral = lateral + torch.sign(lateral) * offset
+    return path[rows, idx] + normal * lateral.unsqueeze(-1)

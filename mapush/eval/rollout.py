@@ -124,9 +124,16 @@ def evaluate(
     finally:
         for recorder in recorders:
             recorder.close()
+    out = run_dir / f"eval{suffix}.json"
+    out.write_text(json.dumps(summarize(cfg, str(checkpoint), episodes, seeds, per_seed), indent=2) + "\n")
+    return out
+
+
+def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed: list[dict]) -> dict:
+    """The eval record (architecture section 6) of `policy`'s per-seed outcomes (`first_episodes`)."""
     sr = np.array([r["success_rate"] for r in per_seed])
     result = {
-        "checkpoint": str(checkpoint),
+        "checkpoint": policy,
         "task": cfg["task"]["name"],
         "num_agents": cfg["task"]["num_agents"],
         "success_rate": float(sr.mean()),
@@ -142,9 +149,7 @@ def evaluate(
     if "velocity_error" in per_seed[0]:  # the low level (architecture 6): tracking error and falls
         for key in ("velocity_error", "fall_rate"):
             result[key] = float(np.mean([r[key] for r in per_seed]))
-    out = run_dir / f"eval{suffix}.json"
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    return out
+    return result
 
 
 def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
