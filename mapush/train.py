@@ -63,17 +63,16 @@ def env_class(cfg: dict) -> type:
 
 
 def make_env(cfg: dict, evaluation: bool = False):
-    """The env of a config. The high levels load their frozen mid level (if they drive one) and, for evaluation,
-    an OMPL planner."""
+    """The env of a config. The high levels load their frozen mid level (if they drive one) and an OMPL planner
+    where their paths are planned: at evaluation (`path.plan_at_eval`), in training with `path.plan_in_training`."""
     cls = env_class(cfg)
     if cls is LocomotionEnv:
         return cls(cfg, evaluation=evaluation)
     if not issubclass(cls, HighPushEnv):
         return cls(cfg)
     mid = load_mid_policy(cfg["mid"], cfg["task"]) if cls.needs_mid else None
-    planner = None
-    if evaluation and cfg["level"]["path"]["plan_at_eval"]:
-        planner = make_planner(cfg)
+    path = cfg["level"]["path"]
+    planner = make_planner(cfg) if path["plan_at_eval" if evaluation else "plan_in_training"] else None
     return cls(cfg, mid, planner=planner)
 
 

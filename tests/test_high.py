@@ -10,8 +10,11 @@ import pytest
 import torch
 
 from mapush.envs.high import HighPushEnv, high_obs_dim
+from mapush.planning.geometry import point_distance
+from mapush.planning.paths import resample
 from mapush.planning.planner import PlanResult
 from mapush.rl.frozen import load_mid_policy
+from mapush.sim.shapes import object_radius
 
 
 @pytest.fixture(scope="module")
@@ -82,6 +85,21 @@ def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
     assert (info["episode_end"]["exception_kind"] == HighPushEnv.EXCEPTIONS.index("planner_failure")).all()
 
 
+@pytest.mark.parametrize("evaluation", [False, True])
+def test_training_plans_its_paths_on_evaluation_maps_when_asked(high_cfg, evaluation):
+    from mapush.train import make_env
+
+    assert (make_env(high_cfg, evaluation).planner is None) != evaluation  # by default only evaluation plans
+    high_cfg["level"]["path"]["plan_in_training"] = True
+    high_cfg["num_envs"] = 3
+    env = make_env(high_cfg, evaluation)
+    assert env.planner is not None and not env.plan_failed.any()
+    start, goal = env.path[:, 0], env.path[:, -1]
+    assert torch.allclose(start, env.object_xy, atol=1e-4) and torch.allclose(goal, env.target_xy, atol=1e-4)
+    gap = point_distance(resample(env.path, 256), env.obstacles).amin(1)  # (E, K): the planned path's clearance
+    assert (gap >= object_radius(high_cfg["task"]["object"]) - 1e-3).all()
+
+
 def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid):
     env = HighPushEnv(high_cfg, mid, num_envs=2)
     obstacles = env.obstacles.clone()
@@ -108,13 +126,18 @@ def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_p
     spec = importlib.util.spec_from_file_location("high_table", Path(__file__).parents[1] / "tools" / "high_table.py")
     table = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(table)
-    row = table.row(run_dir, 2, [0])
+    references = {}
+    row = table.row(run_dir, 2, [0], references)
+    assert table.row(run_dir, 2, [0], references)["path_following"] is row["path_following"]  # one reference
     assert row["learned"] == json.loads((run_dir / "eval.json").read_text())
     assert row["budget"] == {"num_envs": 4, "iterations": 2, "decisions": 2 * 4 * 8, "env_steps": 2 * 4 * 8 * 25}
     reference = row["path_following"]
     assert reference["checkpoint"] == "constant action [0.0, 0.0]" and reference["per_seed"][0]["episodes"] == 2
     assert reference["timeout_s"] == 1.0
-    assert "| paper (Ours) | | | 77.5 +- 3.0 % | 0.66 +- 0.04 |" in table.markdown([row])
+    assert row["training_maps"] == "curved paths, obstacles beside"
+    assert "| paper (Ours) | | | | 77.5 +- 3.0 % | 0.66 +- 0.04 |" in table.markdown([row])
+    planned = {**row, "training_maps": "planned, as at evaluation"}
+    assert table.markdown([row, planned, planned]).count("| planned, as at evaluation | mean |") == 1
 
 
 @pytest.mark.parametrize(

@@ -52,8 +52,8 @@ class HighPushEnv:
         cfg: the composed config (plain dict) with `level=high`.
         mid: the frozen mid level (`mapush.rl.frozen.load_mid_policy`).
         num_envs: overrides `cfg["num_envs"]`.
-        planner: an `ObjectPlanner` to plan every episode's reference path (evaluation); None draws the paper's
-            random curved paths (training).
+        planner: an `ObjectPlanner` to plan every episode's reference path among obstacles placed as at
+            evaluation; None draws the paper's random curved paths with obstacles beside them (training).
     """
 
     EXCEPTIONS = (
