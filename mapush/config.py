@@ -124,8 +124,8 @@ def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], comman
 def load_run_config(run_dir: Path) -> DictConfig:
     """The composed config a run was made with; BadInput if `run_dir` is not a run.
 
-    Root settings, and settings of the run's level, added to mapush after the run was made (e.g. `log`,
-    `level.eval_push_velocity`) take their current defaults; everything the run saved stays as it was.
+    Root settings, and settings of the run's level at any depth, added to mapush after the run was made (e.g.
+    `log`, `level.path.plan_in_training`) take their current defaults; everything the run saved stays as it was.
     """
     path = Path(run_dir) / "config.yaml"
     if not Path(run_dir).is_dir() or not path.is_file():
@@ -133,11 +133,25 @@ def load_run_config(run_dir: Path) -> DictConfig:
     root = OmegaConf.load(CONF_DIR / "config.yaml")
     root.pop("defaults")
     run = OmegaConf.load(path)
-    level_file = CONF_DIR / "level" / f"{OmegaConf.select(run, 'level.name', default='')}.yaml"
-    if level_file.is_file():
-        level = OmegaConf.to_container(OmegaConf.load(level_file), resolve=False)
-        root.level = {key: value for key, value in level.items() if key not in run.level and key != "defaults"}
+    name = OmegaConf.select(run, "level.name", default="")
+    if (CONF_DIR / "level" / f"{name}.yaml").is_file():
+        root.level = level_defaults(name)
     return OmegaConf.merge(root, run)
+
+
+def level_defaults(name: str) -> DictConfig:
+    """The settings `level=<name>` composes to today: the level and map files it builds on, then its own (read
+    without Hydra, which may be running the caller). Its reward and algo overrides are not followed."""
+    node = OmegaConf.load(CONF_DIR / "level" / f"{name}.yaml")
+    merged = OmegaConf.create()
+    for entry in node.pop("defaults", []):
+        if not isinstance(entry, str) or entry == "_self_":
+            continue  # `override /reward...` entries are dicts
+        if entry.startswith("/"):  # a group file placed here, e.g. /map/long_horizon@_here_
+            merged = OmegaConf.merge(merged, OmegaConf.load(CONF_DIR / f"{entry.split('@')[0].lstrip('/')}.yaml"))
+        else:  # another level file
+            merged = OmegaConf.merge(merged, level_defaults(entry))
+    return OmegaConf.merge(merged, node)
 
 
 SWAPPABLE_GROUPS = ("task", "level", "lowlevel", "reward")

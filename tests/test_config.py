@@ -89,3 +89,17 @@ def test_a_run_config_takes_current_defaults_only_for_level_settings_it_lacks(tm
     cfg = load_run_config(tmp_path)
     assert cfg.level.eval_push_velocity == 0.0  # today's default
     assert list(cfg.level.commands.vx) == [-0.3, 0.3] and cfg.level.subject == "go1"  # as the run saved them
+
+
+def test_a_run_config_takes_current_defaults_for_nested_level_settings_it_lacks(tmp_path):
+    from omegaconf import OmegaConf
+
+    from mapush.config import load_run_config
+
+    saved = to_plain(compose_config(["level=high", "level.planner.margin_m=0.1"]))
+    del saved["level"]["path"]["plan_in_training"]  # settings of the map and path nodes made after the run
+    del saved["level"]["obstacles"]["train_clear_path"]
+    OmegaConf.save(OmegaConf.create(saved), tmp_path / "config.yaml")
+    cfg = load_run_config(tmp_path)
+    assert cfg.level.path.plan_in_training is False and cfg.level.obstacles.train_clear_path is True  # today's
+    assert cfg.level.planner.margin_m == 0.1 and cfg.level.path.points == 32  # as the run saved them
