@@ -24,7 +24,8 @@ def constant_action(cfg: dict, action: list[float], episodes: int, seeds: list[i
     per_seed = []
     for seed in seeds:
         env, runner = build({**cfg, "seed": seed, "num_envs": episodes}, None, 0, evaluation=True)  # as mapush eval
-        per_seed.append(first_episodes(env, runner.env, lambda obs: fixed.expand(obs.batch_size[0], 2), seed))
+        act = lambda obs, env=env: fixed.expand(obs.batch_size[0], env.num_actions)  # noqa: E731
+        per_seed.append(first_episodes(env, runner.env, act, seed))
     return summarize(cfg, f"constant action {fixed.tolist()}", episodes, seeds, per_seed)
 
 

@@ -81,12 +81,11 @@ def row(run: Path, episodes: int | None, seeds: list[int] | None, references: di
 
 
 def cell(records: list[dict], key: str, percent: bool) -> str:
-    values = np.array([r[key] for r in records]) * (100 if percent else 1)
-    unit, digits = (" %", 1) if percent else ("", 3)
-    if len(values) == 1:
-        std = records[0][f"{key}_std"] * (100 if percent else 1)  # one training seed: the spread over eval seeds
-        return f"{values[0]:.{digits}f} +- {std:.{digits}f}{unit}"
-    return f"{values.mean():.{digits}f} +- {values.std():.{digits}f}{unit}"
+    """Mean +- std of `key` over records; for one record, its own std over evaluation seeds."""
+    scale, unit, digits = (100, " %", 1) if percent else (1, "", 3)
+    values = np.array([r[key] for r in records]) * scale
+    std = records[0][f"{key}_std"] * scale if len(values) == 1 else values.std()
+    return f"{values.mean():.{digits}f} +- {std:.{digits}f}{unit}"
 
 
 def markdown(rows: list[dict]) -> str:
@@ -95,10 +94,11 @@ def markdown(rows: list[dict]) -> str:
     sr, ct = paper["success_rate"][first["task"]]["ours"], paper["completion_time"][first["task"]]["ours"]
     lines = [
         f"The whole hierarchy on the long-horizon {first['task']} task ({first['num_agents']} robots): OMPL path, "
-        f"high level, frozen mid level, tracker low level; {first['episodes']} trials x evaluation seeds "
+        f"high level, frozen mid level, the run's low level; {first['episodes']} trials x evaluation seeds "
         f"{first['seeds']} per training seed. Per run: mean +- std over evaluation seeds; the mean row: over "
-        "training seeds. C.T. is normalized by the 160 s timeout. Path following: the constant action (0, 0), every "
-        "subgoal on the planned path (tools/high_reference.py), on the same maps.",
+        f"training seeds. C.T. is normalized by the {first['learned']['timeout_s']:g} s timeout. Path following: the "
+        f"constant action {tuple(FOLLOW)}, every subgoal on the planned path (tools/high_reference.py), on the same "
+        "maps.",
         "",
         "| Training maps | Seed | Run | Budget | S.R. | C.T. | Path following S.R. | Path following C.T. |",
         "|---|---|---|---|---|---|---|---|",

@@ -14,6 +14,9 @@ from mapush.sim.shapes import object_radius
 MAX_REJECTION_ROUNDS = 32
 """Rounds of resampling for envs whose robots spawned too close; the rest get evenly spread angles."""
 
+CLEARANCE_SAMPLES = 4
+"""Samples per path point where a training obstacle's clearance to its path is checked (about 0.1 m apart)."""
+
 
 def ring_capacity(radius: float, min_distance: float) -> int:
     """Most robots that fit on a ring of `radius` with centres at least `min_distance` apart."""
@@ -168,13 +171,13 @@ def sample_obstacles(
     rows[..., 3:] = size
     corridor = train_corridor(cfg) if path is not None else 0.0
     if corridor:
-        dense = resample(path, 4 * path.shape[1])  # the clearance check's samples, about 0.1 m apart
+        dense = resample(path, CLEARANCE_SAMPLES * path.shape[1])
+    beside = corridor + min(spec["size"][:2]) / 2 if corridor else 0.0  # the nearest a centre can be to the path
     for k in range(count):
         todo = torch.arange(n)
         for _ in range(MAX_REJECTION_ROUNDS):
             m = len(todo)
             if path is not None:
-                beside = corridor + min(spec["size"][:2]) / 2 if corridor else 0.0  # the nearest a centre can be
                 centre = _in_strip(gen, path[todo], spec["train_strip_width"], beside)
             else:
                 centre = torch.stack([uniform(gen, x_lo, x_hi, m), uniform(gen, y_lo, y_hi, m)], -1)
