@@ -76,6 +76,13 @@ def make_env(cfg: dict, evaluation: bool = False):
     return cls(cfg, mid, planner=planner)
 
 
+def torch_threads(cfg: dict) -> tuple[int, int]:
+    """Torch threads of the rollout and of the PPO update (`train.rollout_threads`, `train.update_threads`);
+    0 means as many as MuJoCo steps the batch with (`sim.nthread`, itself 0 for every core)."""
+    sim_threads = int(cfg["sim"]["nthread"]) or os.cpu_count() or 1
+    return tuple(int(cfg["train"][key]) or sim_threads for key in ("rollout_threads", "update_threads"))
+
+
 def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bool = False):
     """The env and the runner of a config; `run_dir=None` builds them without any logging (evaluation)."""
     seed_everything(int(cfg["seed"]))
@@ -89,6 +96,7 @@ def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bo
             train_cfg_for(cfg, env.policy_agents, total_iterations),
             log_dir=str(run_dir) if run_dir else None,
             device=cfg["device"],
+            threads=torch_threads(cfg),
         )
     runner.add_git_repo_to_log(mapush.__file__)
     return env, runner

@@ -88,6 +88,20 @@ def test_eval_with_another_agent_count_names_the_trained_count(cli, run_copy):
     assert_bad_input(cli("eval", run_copy, "task.num_agents=3"), "task.num_agents=2")
 
 
+def test_eval_refuses_a_checkpoint_holding_more_than_weights(cli, run_copy, snapshot):
+    import argparse
+
+    import torch
+
+    last = sorted(run_copy.glob("model_*.pt"))[-1]
+    data = torch.load(last, weights_only=True)
+    data["infos"] = argparse.Namespace(note="any pickled object could run code when loaded")
+    torch.save(data, last)
+    before = snapshot(run_copy)
+    assert_bad_input(cli("eval", last), str(last), "other than weights", "valid:")
+    assert snapshot(run_copy) == before
+
+
 def test_eval_with_zero_episodes(cli, run_copy, snapshot):
     before = snapshot(run_copy)
     assert_bad_input(cli("eval", run_copy, "--episodes", "0"), "--episodes 0", "valid: 1 or more")

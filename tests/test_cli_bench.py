@@ -1,8 +1,18 @@
-"""`mapush bench debug=smoke`: it runs and reports its figures (the figures themselves are never asserted)."""
+"""`mapush bench`: it runs and reports its figures (the figures themselves are never asserted), its iteration
+breakdown accounts for the iteration, and `--learn` finds when thresholds are first reached."""
 
 from __future__ import annotations
 
 import json
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from mapush.bench.learning import checkpoint_marks
+from mapush.bench.throughput import iteration_breakdown
+from mapush.eval.curves import env_steps_at, first_reaching
 
 
 def test_bench_writes_its_figures_as_json_and_no_run_dir(cli, tmp_path):
@@ -15,4 +25,76 @@ def test_bench_writes_its_figures_as_json_and_no_run_dir(cli, tmp_path):
     assert (result["task"], result["num_envs"], result["num_agents"], result["steps"]) == ("cuboid", 8, 2, 5)
     for key in ("env_steps_per_s", "raw_sim_steps_per_s", "train_steps_per_s", "peak_rss_mb"):
         assert result[key] > 0
+    assert set(result["iteration"]["phases_ms"]) >= {"physics", "env logic", "policy inference", "ppo update"}
+    assert not (tmp_path / "runs").exists()
+
+
+def test_the_iteration_breakdown_adds_up_to_the_iteration_time(cfg_for):
+    from mapush.train import build
+
+    cfg = cfg_for("debug=smoke", "num_envs=32", "algo.num_steps_per_env=16", "log.episode_interval=0")
+    with tempfile.TemporaryDirectory() as tmp:
+        env, runner = build(cfg, Path(tmp), 6)
+        out = iteration_breakdown(env, runner, 6, Path(tmp) / "train.log")
+    phases = out["phases_ms"]
+    assert all(v >= 0 for v in phases.values()), phases
+    assert phases["physics"] > 0 and phases["ppo update"] > 0 and phases["logging"] > 0
+    assert abs(sum(phases.values()) - out["iteration_ms"]) <= 0.05 * out["iteration_ms"], out
+    assert abs(sum(out["phases_share"].values()) - out["accounted"]) < 1e-3
+
+
+def test_env_steps_count_every_env_and_control_step(cfg_for):
+    cfg = cfg_for()  # 500 envs x 24 steps per iteration
+    assert env_steps_at(cfg, 0) == 12_000
+    assert env_steps_at(cfg, 9) == 120_000
+    cfg["level"]["decision_steps"] = 25  # a high-level decision holds 25 control steps
+    assert env_steps_at(cfg, 0) == 300_000
+
+
+def _points(*rates: float) -> list[dict]:
+    return [
+        {"minutes": 0.5 * (k + 1), "env_steps": 1000 * (k + 1), "iteration": 10 * k, "success_rate": r}
+        for k, r in enumerate(rates)
+    ]
+
+
+def test_first_reaching_is_the_first_evaluation_at_or_above_the_threshold():
+    points = _points(0.2, 0.61, 0.55, 0.8, 0.9)
+    assert first_reaching(points, 0.6) == {"minutes": 1.0, "env_steps": 2000, "iteration": 10}
+    assert first_reaching(points, 0.8) == {"minutes": 2.0, "env_steps": 4000, "iteration": 30}
+    assert first_reaching(points, 0.95) is None
+
+
+def test_each_mark_takes_the_last_checkpoint_written_before_it(tmp_path):
+    launched = 1_000_000.0
+    written_at_s = {0: 20, 10: 50, 20: 80, 30: 100, 40: 170}  # iteration -> seconds after launch
+    for iteration, seconds in written_at_s.items():
+        path = tmp_path / f"model_{iteration}.pt"
+        path.write_bytes(b"")
+        os.utime(path, (launched + seconds, launched + seconds))
+    marks = checkpoint_marks(tmp_path, launched, every_min=1.0)
+    # 1 min: model_10 (50 s); 2 min: model_30 (100 s); 3 min: model_40 (170 s)
+    assert [(round(m, 4), p.name) for m, p in marks] == [
+        (round(50 / 60, 4), "model_10.pt"),
+        (round(100 / 60, 4), "model_30.pt"),
+        (round(170 / 60, 4), "model_40.pt"),
+    ]
+
+
+@pytest.mark.slow
+def test_bench_learn_trains_evaluates_and_draws_its_curve(cli, tmp_path):
+    out = tmp_path / "learn" / "smoke.json"
+    proc = cli("bench", "--learn", "--minutes", "0.2", "debug=smoke", "bench.learn.eval_every_min=0.05", "--json", out)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(out.read_text())
+    assert out.with_suffix(".png").is_file()
+    assert result["task"] == "cuboid" and set(result["reached"]) == {"0.6", "0.8"}
+    minutes = [p["minutes"] for p in result["points"]]
+    assert minutes == sorted(minutes) and 0 < minutes[-1] <= 0.2 + 0.05
+    assert (tmp_path / result["run_dir"]).is_dir()
+
+
+def test_bench_learn_refuses_a_non_positive_time(cli, tmp_path):
+    proc = cli("bench", "--learn", "--minutes", "0", "debug=smoke")
+    assert proc.returncode == 2 and "--minutes 0.0 must be positive" in proc.stderr
     assert not (tmp_path / "runs").exists()

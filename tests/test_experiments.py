@@ -36,6 +36,8 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
         )
         assert set(result["stages"]) == stages
         assert result["evals"]["main"]["episodes"] == 2
+        # the path-only reference is evaluated for Ours alone
+        assert set(result["evals"]) == ({"main", "path_only", "go1"} if result["method"] == "ours" else {"main"})
         assert 0.0 <= result["evals"]["main"]["success_rate"] <= 1.0
         for run_dir in map(Path, result["stages"].values()):
             assert sorted(p.name for p in run_dir.glob("model_*.pt")) == ["model_0.pt"]  # one iteration
@@ -74,14 +76,15 @@ def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
     finished, cut = sorted(jobs)
     kept = (jobs[finished] / RESULT).read_text()
     # cut the other job after its second iteration's checkpoint: no last checkpoint, policy or result
-    mid_run = next(p.parent for p in (jobs[cut] / "mid").glob("**/config.yaml"))
+    mid_run = Path(json.loads((jobs[cut] / RESULT).read_text())["stages"]["mid"])
+    stage_dir = mid_run.parents[2]  # the stage's store dir: <stages>/<identity>/mid/<task>/<run>
     for name in (RESULT, "mid_run/model_2.pt", "mid_run/policy.pt"):
         (jobs[cut] / name if name == RESULT else mid_run / name.split("/")[1]).unlink()
     proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", three)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (jobs[finished] / RESULT).read_text() == kept  # not run again
     assert (mid_run / "model_2.pt").is_file() and (mid_run / "policy.pt").is_file()  # resumed in the same run dir
-    assert [p.parent for p in (jobs[cut] / "mid").glob("**/config.yaml")] == [mid_run]
+    assert [p.parent for p in stage_dir.glob("**/config.yaml")] == [mid_run]
     assert json.loads((jobs[cut] / RESULT).read_text())["stages"]["mid"] == str(mid_run)
     assert "Learning iteration 2/3" in (mid_run / "train.log").read_text()
 
@@ -131,7 +134,7 @@ def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for)
     plan = stage_plan(cfg)
     assert [name for name, _ in plan] == ["mid"]  # the ablation evaluates the mid level
     assert plan[0][1][:2] == ["task.num_agents=1", "level=mid"]
-    assert "num_envs=200" in plan[0][1]
+    assert "num_envs=500" in plan[0][1]  # the quick budget's envs
     # env-steps become iterations: 6e6 / (200 envs x 24 steps) = 1250
     assert iterations_for(cfg_for("num_envs=200"), 6.0e6) == 1250
     # a high-level iteration of 64 envs x 32 decisions x 25 control steps
@@ -161,8 +164,8 @@ def _fixture_result(root: Path, table: str, method: str, task: str, seed: int, e
 def fixture_tables(tmp_path):
     runs = tmp_path / "runs"
     # main: ours on the cuboid over 2 seeds; SA on the cylinder over 1 seed; everything else missing
-    _fixture_result(runs, "main", "ours", "cuboid", 0, {"main": (0.80, 0.60, 96.0)})
-    _fixture_result(runs, "main", "ours", "cuboid", 1, {"main": (0.70, 0.70, 112.0)})
+    _fixture_result(runs, "main", "ours", "cuboid", 0, {"main": (0.80, 0.60, 96.0), "path_only": (0.9, 0.5, 80.0)})
+    _fixture_result(runs, "main", "ours", "cuboid", 1, {"main": (0.70, 0.70, 112.0), "path_only": (0.8, 0.6, 96.0)})
     _fixture_result(runs, "main", "sa", "cylinder", 0, {"main": (0.10, 0.95, 152.0)}, agents=1)
     # OCB ablation: ours over 2 seeds, the no-OCB variant never ran
     for seed, (sr20, s20, sr40, s40) in enumerate([(0.5, 15.0, 0.7, 22.0), (0.6, 14.0, 0.8, 20.0)]):
@@ -179,7 +182,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     proc = cli("tables", "--runs", fixture_tables, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
-    assert "main_quick.{md,tex,csv,json}: 4/36 cells filled" in proc.stdout
+    assert "main_quick.{md,tex,csv,json}: 6/48 cells filled" in proc.stdout
     assert "scale_quick.{md,tex,csv,json}: 4/8 cells filled" in proc.stdout
 
     md = (out / "main_quick.md").read_text()
@@ -191,6 +194,12 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert "\u2014 (4.5 \u00b1 0.3)" in md  # SA on the cuboid: no job
     assert "- sa / cuboid / success_rate: no finished job" in md
     assert "- hl / cuboid / success_rate: no finished job" in md
+    # Ours, path only, on the cuboid: 90 % and 80 % -> 85.0 +- 5.0, C.T. 0.55 +- 0.05; the paper has no such row
+    assert md.splitlines()[2].endswith("| Ours | Ours, path only | Ours, legged |")
+    assert "| 75.0 \u00b1 5.0 (77.5 \u00b1 3.0) | 85.0 \u00b1 5.0 |" in md
+    assert "| 0.65 \u00b1 0.05 (0.66 \u00b1 0.04) | 0.55 \u00b1 0.05 |" in md
+    assert "- Ours, path only / tblock / success_rate: no finished job" in md
+    assert "- Ours, legged / cuboid / success_rate: no finished job" in md
 
     tex = (out / "main_quick.tex").read_text()
     assert "\\toprule" in tex and "\\midrule" in tex and "\\bottomrule" in tex
@@ -225,7 +234,7 @@ def test_tables_with_no_runs_are_still_written_with_every_cell_missing(cli, tmp_
     (tmp_path / "runs").mkdir()
     proc = cli("tables", "--runs", tmp_path / "runs", "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
-    assert "0/36 cells filled" in proc.stdout
+    assert "0/48 cells filled" in proc.stdout
     assert "\u2014 (77.5 \u00b1 3.0)" in (tmp_path / "out" / "main_quick.md").read_text()
 
 

@@ -72,6 +72,14 @@ def test_action_zero_follows_the_path_at_the_middle_distance(high_cfg, mid):
     assert torch.allclose(subgoal, env.object_xy + 2.25 * direction, atol=1e-5)
 
 
+def test_follow_path_ignores_the_policy_and_keeps_every_subgoal_on_the_path(high_cfg, mid):
+    high_cfg["level"]["follow_path"] = True
+    env = HighPushEnv(high_cfg, mid, num_envs=2)
+    expected = env.object_xy + 2.25 * env.path_direction()  # where the action (0, 0) puts the subgoal
+    env._apply_action(torch.tensor([[[1.0, -1.0]], [[-0.5, 0.7]]]))
+    assert torch.allclose(env.subgoal_xy, expected, atol=1e-5)
+
+
 def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
     class NoPath:
         def plan(self, start, goal, obstacles, waypoints):

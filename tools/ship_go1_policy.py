@@ -39,7 +39,7 @@ def ship(run_dir: Path, episodes: int, seeds: list[int], out: Path = PRETRAINED_
     out.mkdir(parents=True)
     for name in RUN_FILES:
         shutil.copy2(run_dir / name, out / name)
-    data = torch.load(last, weights_only=False, map_location="cpu")
+    data = torch.load(last, weights_only=True, map_location="cpu")
     slim = {"actor_state_dict": data["actor_state_dict"], "iter": data["iter"], "infos": data.get("infos")}
     torch.save(slim, out / last.name)
     meta = json.loads((out / "meta.json").read_text())

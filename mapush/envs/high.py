@@ -298,7 +298,10 @@ class HighPushEnv:
         return self.observations(), reward, terminated, truncated, info
 
     def _apply_action(self, actions: torch.Tensor) -> None:
-        """Start a decision: the object's subgoal from the actions (E, 1, 2), shown by the subgoal marker."""
+        """Start a decision: the object's subgoal from the actions (E, 1, 2), shown by the subgoal marker; with
+        `level.follow_path` the actions are ignored and the subgoal follows the path (action (0, 0))."""
+        if self.cfg["level"]["follow_path"]:
+            actions = torch.zeros_like(actions)
         self.subgoal_xy = self.subgoal_from_action(actions[:, 0])
         self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
 

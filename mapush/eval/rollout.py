@@ -129,6 +129,13 @@ def evaluate(
     return out
 
 
+def evaluate_quietly(cfg: dict, checkpoint: Path, episodes: int, seeds: list[int]) -> dict:
+    """`evaluate`'s summary of one checkpoint under `cfg`, writing no file (learning curves, benchmarks)."""
+    cfg = {**cfg, "log": {**cfg["log"], "eval_episodes": 0}}
+    per_seed = [run_episodes(cfg, checkpoint, episodes, s) for s in seeds]
+    return summarize(cfg, str(checkpoint), episodes, seeds, per_seed)
+
+
 def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed: list[dict]) -> dict:
     """The eval record (architecture section 6) of `policy`'s per-seed outcomes (`first_episodes`)."""
     sr = np.array([r["success_rate"] for r in per_seed])

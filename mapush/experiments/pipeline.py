@@ -1,8 +1,9 @@
 """One sweep job: train a method's stages in order, evaluate the experiment's stage, write `result.json`.
 
-A job dir holds one run dir per stage (`<job>/<stage>/<level>/<task>/<time>__seed<seed>`) and, once every
-evaluation is done, `result.json`. Re-running a job skips it when `result.json` exists, skips stages whose run is
-finished (it has the exported policy), resumes a stage cut after a checkpoint, and restarts one cut before.
+Stages live in the sweep root's store (`stages.py`), one run per stage identity, shared by every job and
+experiment that composes the same stage; a job dir holds `result.json`, which names the run dir of each stage.
+Re-running a job skips it when `result.json` exists, reuses stages whose run is finished (it has the exported
+policy), resumes a stage cut after a checkpoint, and restarts one cut before.
 """
 
 from __future__ import annotations
@@ -13,17 +14,18 @@ import math
 import os
 import shutil
 from pathlib import Path
+from typing import NamedTuple
 
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import compose_config, load_run_config
+from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
 from mapush.errors import BadInput
-from mapush.rl.runner import POLICY_FILE, checkpoints
+from mapush.experiments import stages
+from mapush.experiments.stages import STAGE_REF
+from mapush.rl.runner import POLICY_FILE, checkpoints, env_steps_per_iteration
 
 RESULT = "result.json"
-STAGE_REF = "@"
-"""An override value `@STAGE` (e.g. `mid=@mid`) stands for that earlier stage's run dir."""
 
 
 def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
@@ -73,11 +75,34 @@ def variant(cfg: DictConfig) -> str:
     return name[len(prefix) :] if name.startswith(prefix) else name
 
 
+class PlannedStage(NamedTuple):
+    """A stage of a job as it will be trained: its overrides, budget in iterations and env-steps, identity."""
+
+    name: str
+    overrides: list[str]
+    iterations: int
+    env_steps: int
+    identity: str
+
+
+def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
+    """Every stage the job trains, in order, composed and identified without training anything."""
+    budget = budget_of(cfg)
+    identities: dict[str, str] = {}
+    planned = []
+    for name, overrides in stage_plan(cfg):
+        env_steps = float(budget.stages[name].env_steps)
+        stage_cfg = stages.compose_stage(overrides, lambda c, s=env_steps: iterations_for(c, s))
+        identities[name] = stages.identity(stage_cfg, overrides, identities)
+        iterations = int(stage_cfg["train"]["iterations"])
+        steps = iterations * env_steps_per_iteration(stage_cfg)
+        planned.append(PlannedStage(name, overrides, iterations, steps, identities[name]))
+    return planned
+
+
 def iterations_for(stage_cfg: DictConfig | dict, env_steps: float) -> int:
-    """PPO iterations that give at least `env_steps` 50 Hz control steps (a high-level decision holds several)."""
-    per_decision = int(stage_cfg["level"].get("decision_steps", 1))
-    per_iteration = int(stage_cfg["num_envs"]) * int(stage_cfg["algo"]["num_steps_per_env"]) * per_decision
-    return max(1, math.ceil(float(env_steps) / per_iteration))
+    """PPO iterations that give at least `env_steps` 50 Hz control steps."""
+    return max(1, math.ceil(float(env_steps) / env_steps_per_iteration(stage_cfg)))
 
 
 def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
@@ -91,12 +116,17 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     torch.set_num_threads(threads)
     budget = budget_of(cfg)
     runs: dict[str, Path] = {}
-    for name, overrides in stage_plan(cfg):
-        overrides = [_resolve_stage_refs(o, runs) for o in overrides] + [f"sim.nthread={threads}"]
-        runs[name] = train_stage(job_dir / name, overrides, float(budget.stages[name].env_steps))
+    for stage in planned_stages(cfg):
+        overrides = [_resolve_stage_refs(o, runs) for o in stage.overrides] + [f"sim.nthread={threads}"]
+        directory = stages.stage_dir(Path(cfg.sweep_root), stage.identity)
+        with stages.held(directory):
+            runs[stage.name] = train_stage(directory, overrides, stage.iterations)
     evaluated = runs[evaluated_stage(cfg)]
     evals = {}
-    for name, overrides in cfg.experiment.evals.items():
+    for name, spec in cfg.experiment.evals.items():
+        if not OmegaConf.is_list(spec) and cfg.method.name not in spec.methods:
+            continue  # an evaluation for other methods only
+        overrides = eval_overrides(spec)
         path = evaluate(evaluated, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
@@ -111,8 +141,9 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         "task": cfg.task.name,
         "num_agents": int(load_run_config(evaluated).task.num_agents),
         "seed": int(cfg.seed),
-        "stages": {name: str(path) for name, path in runs.items()},
+        "stages": {name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
         "evals": evals,
+        "curve": _curve(cfg, evaluated),
         "finished": datetime.datetime.now().isoformat(timespec="seconds"),
     }
     tmp = done.with_suffix(".tmp")
@@ -121,8 +152,25 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     return result
 
 
-def train_stage(stage_dir: Path, overrides: list[str], env_steps: float) -> Path:
-    """The finished run of one stage: reused, resumed from its last checkpoint, or trained from scratch."""
+def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
+    """The budget's `curve`: the evaluated stage's checkpoints evaluated as the named evaluation, with the
+    experiment's budget rule; None when the budget asks for none."""
+    from mapush.eval.curves import learning_curve
+
+    budget = budget_of(cfg)
+    curve = budget.get("curve")
+    if not curve:
+        return None
+    run_cfg = to_plain(apply_overrides(load_run_config(evaluated), eval_overrides(cfg.experiment.evals[curve.eval])))
+    episodes, seeds = int(budget.eval.episodes), list(budget.eval.seeds)
+    points = learning_curve(evaluated, run_cfg, float(curve.every_env_steps), episodes, seeds)
+    rule = OmegaConf.to_container(cfg.experiment.budget_rule)
+    return {**OmegaConf.to_container(curve), "rule": rule, "points": points}
+
+
+def train_stage(stage_dir: Path, overrides: list[str], iterations: int) -> Path:
+    """The finished run of one stage in its store dir: reused, resumed from its last checkpoint, or trained from
+    scratch for `iterations`."""
     from mapush import train as training
 
     for run_dir in sorted(p.parent for p in stage_dir.glob("**/config.yaml")):
@@ -135,14 +183,20 @@ def train_stage(stage_dir: Path, overrides: list[str], env_steps: float) -> Path
         shutil.rmtree(run_dir)  # cut before its first checkpoint: nothing to keep
     cfg = compose_config(overrides)
     budget = {
-        "train.iterations": iterations_for(cfg, env_steps),
+        "train.iterations": iterations,
         "train.run_root": str(stage_dir),
         "train.progress": False,
     }
     for key, value in budget.items():
         OmegaConf.update(cfg, key, value)
     overrides = [*overrides, *(f"{key}={value}" for key, value in budget.items())]  # the run's record
+    stages.write_identity(stage_dir, to_plain(cfg), stage_dir.name)
     return training.train(cfg, overrides, command=f"mapush sweep (stage of {stage_dir.parent})")
+
+
+def eval_overrides(spec) -> list[str]:
+    """The overrides of one of an experiment's evaluations: a list, or `{overrides: [...], methods: [...]}`."""
+    return list(spec if OmegaConf.is_list(spec) else spec.overrides)
 
 
 def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:

@@ -21,7 +21,9 @@ from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import CONF_DIR, compose_config, group_options, to_plain
 from mapush.errors import BadInput
-from mapush.experiments.pipeline import RESULT, STAGE_REF, budget_of, run_job, stage_plan
+from mapush.experiments import stages
+from mapush.experiments.pipeline import RESULT, budget_of, planned_stages, run_job, stage_plan
+from mapush.experiments.stages import STAGE_REF
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
 SWEEP_KEYS = (*SWEEP_GROUPS, "seed", "agents", "budget", "overrides", "sweep_root", "sweep_name", "job_threads")
@@ -117,23 +119,60 @@ def _check_launcher_plugin(launcher: str) -> None:
         raise BadInput(f"launcher={launcher} is not installed; valid: install {install}") from None
 
 
+def job_combos(overrides: list[str], seeds: bool = True) -> list[list[str]]:
+    """Every job of a sweep as its list of `key=value` axis overrides (`seeds=False`: one job per seed set)."""
+    combos: list[list[str]] = [[]]
+    for key, values in _split_axes(overrides).items():
+        if key == "launcher" or key.startswith("hydra") or (key == "seed" and not seeds):
+            continue
+        combos = [[*c, f"{key}={v}"] for c in combos for v in values]
+    return combos
+
+
 def _check_jobs(overrides: list[str]) -> None:
     """Compose every job's stages (without training) so that a bad method, task or agent count fails now."""
     from mapush.train import env_class
 
-    combos: list[list[str]] = [[]]
-    for key, values in _split_axes(overrides).items():
-        if key in ("launcher", "seed") or key.startswith("hydra"):  # the seed changes no stage's validity
-            continue
-        combos = [[*c, f"{key}={v}"] for c in combos for v in values]
     checked: set[tuple[str, ...]] = set()
-    for combo in combos:
+    for combo in job_combos(overrides, seeds=False):  # the seed changes no stage's validity
         for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):
             key = tuple(o for o in stage_overrides if STAGE_REF not in o)
             if key not in checked:
                 checked.add(key)
                 plain = to_plain(compose_config(list(key)))
                 env_class(plain).validate(plain)
+
+
+def dry_run(overrides: list[str]) -> list[dict]:
+    """What `run_sweep(overrides)` would train and reuse, job by job, training nothing; printed and returned.
+
+    Each row: job, stage, identity, what happens (`train`, `resume from N/M`, `reuse` a finished stage, or `share`
+    a stage an earlier job of this sweep trains) and the stage's env-steps.
+    """
+    full = sweep_overrides(overrides)
+    combos = job_combos(full)
+    hydra_cfg = compose_config(combos[0], config_name="sweep", hydra=True).hydra
+    unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
+    rows, seen = [], set()
+    for combo in combos:
+        cfg = compose_config(combo, config_name="sweep")
+        job = ",".join(o for o in combo if o.partition("=")[0] not in unnamed)
+        for stage in planned_stages(cfg):
+            state = stages.status(stages.stage_dir(Path(cfg.sweep_root), stage.identity), stage.iterations)
+            action = "share" if stage.identity in seen else {"finished": "reuse", "new": "train"}.get(state, state)
+            seen.add(stage.identity)
+            rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action,
+                         "env_steps": stage.env_steps})  # fmt: skip
+    to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith("resume")]
+    print(f"sweep {hydra_cfg.sweep.dir}: {len(rows)} stages in {len(combos)} jobs; "
+          f"{len(to_train)} to train ({sum(r['env_steps'] for r in to_train) / 1e6:.1f}M env-steps), "
+          f"{sum(r['action'] == 'reuse' for r in rows)} finished to reuse, "
+          f"{sum(r['action'] == 'share' for r in rows)} shared between jobs")  # fmt: skip
+    width = max(len(r["job"]) for r in rows)
+    for r in rows:
+        print(f"  {r['job']:{width}s}  {r['stage']:5s} {r['identity']}  {r['action']:18s} "
+              f"{r['env_steps'] / 1e6:8.2f}M env-steps")  # fmt: skip
+    return rows
 
 
 def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:

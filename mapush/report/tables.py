@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from mapush.experiments.pipeline import RESULT
+from mapush.report import plots
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
 MISSING = "\u2014"
@@ -30,23 +31,31 @@ class Cell:
     sources: list[str] = field(default_factory=list)
     paper: tuple[float, float] | None = None
     digits: int = 1
+    unreached: int = 0  # seeds that never reached what the cell measures (e.g. env-steps to 50 % success)
 
     def text(self) -> str:
         digits = self.digits
-        ours = MISSING
-        if len(self.values) == 1:  # no spread to show: say it is one seed rather than print a std of 0
-            ours = f"{self.values[0]:.{digits}f} (1 seed)"
+        ours = "never reached" if self.unreached else MISSING
+        if self.unreached and self.values:
+            ours = f"{self._ours()} ({self.unreached} of {self.unreached + len(self.values)} seeds never)"
         elif self.values:
-            ours = f"{np.mean(self.values):.{digits}f} \u00b1 {np.std(self.values):.{digits}f}"
+            ours = self._ours()
         if self.paper is None:
             return ours
         return f"{ours} ({self.paper[0]:.{digits}f} \u00b1 {self.paper[1]:.{digits}f})"
+
+    def _ours(self) -> str:
+        digits = self.digits
+        if len(self.values) == 1:  # no spread to show: say it is one seed rather than print a std of 0
+            return f"{self.values[0]:.{digits}f} (1 seed)"
+        return f"{np.mean(self.values):.{digits}f} \u00b1 {np.std(self.values):.{digits}f}"
 
     def record(self) -> dict:
         return {
             "mean": float(np.mean(self.values)) if self.values else None,
             "std": float(np.std(self.values)) if self.values else None,
             "seeds": len(self.values),
+            "unreached": self.unreached,
             "paper": list(self.paper) if self.paper else None,
             "sources": self.sources,
         }
@@ -63,6 +72,8 @@ class Table:
     rows: list[tuple[list[str], list[Cell]]]  # (row labels, cells)
     missing: list[str] = field(default_factory=list)
     note: str = ""
+    findings: list[str] = field(default_factory=list)  # what holds here of the paper's findings, budget checks
+    curves: dict = field(default_factory=dict)  # {panel: {label: results}} for the learning-curve plot
 
 
 def load_results(root: Path) -> list[dict]:
@@ -75,15 +86,29 @@ def load_results(root: Path) -> list[dict]:
     return results
 
 
+EXTRA_OURS = {"path_only": "Ours, path only", "go1": "Ours, legged"}
+"""Evaluations of Ours that the main table shows beside the paper's methods (conf/experiment/main.yaml)."""
+
+
+def _matching(results: list[dict], **match) -> list[dict]:
+    return [r for r in results if all(r.get(k) == v for k, v in match.items())]
+
+
 def _collect(results: list[dict], metric: str, scale: float, **match) -> Cell:
     """The cell of the results that match (key: value or eval name), for one metric of one evaluation."""
     eval_name = match.pop("eval")
     cell = Cell()
-    for r in results:
-        if all(r.get(k) == v for k, v in match.items()) and eval_name in r["evals"]:
+    for r in _matching(results, **match):
+        if eval_name in r["evals"]:
             cell.values.append(scale * r["evals"][eval_name][metric])
             cell.sources.append(r["job_dir"])
     return cell
+
+
+def _reach_cell(results: list[dict]) -> Cell:
+    """Env-steps (M) to the curve's `reach` success rate, over the seeds of `results`."""
+    values, sources, unreached = plots.reach_values(results)
+    return Cell(values, sources, digits=2, unreached=unreached)
 
 
 def main_table(results: list[dict], variant: str) -> Table:
@@ -91,7 +116,7 @@ def main_table(results: list[dict], variant: str) -> Table:
     paper = PAPER["main"]
     mine = [r for r in results if r["table"] == "main" and r["variant"] == variant]
     methods = paper["methods"]
-    rows, missing = [], []
+    rows, missing, findings = [], [], []
     for task in paper["tasks"]:
         for metric, key, scale, digits, label in (
             ("success_rate", "success_rate", 100.0, 1, "S.R. (%) \u2191"),
@@ -104,15 +129,32 @@ def main_table(results: list[dict], variant: str) -> Table:
                 if not cell.values:
                     missing.append(f"{method} / {task} / {metric}: no finished job")
                 cells.append(cell)
+            for eval_name, column in EXTRA_OURS.items():  # Ours' other evaluations (not in the paper)
+                extra = _collect(mine, key, scale, method="ours", task=task, eval=eval_name)
+                extra.digits = digits
+                if not extra.values:
+                    missing.append(f"{column} / {task} / {metric}: no finished job")
+                cells.append(extra)
             rows.append(([paper["task_labels"][task], label], cells))
+    panels = {
+        paper["task_labels"][task]: {paper["labels"][m]: _matching(mine, method=m, task=task) for m in methods}
+        for task in paper["tasks"]
+    }
+    for task, lines in panels.items():
+        findings += filter(None, (plots.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
     return Table(
         f"main_{variant}",
         f"Main results ({variant}): ours (paper)",
         ["Task", "Metric"],
-        [paper["labels"][m] for m in methods],
+        [*(paper["labels"][m] for m in methods), *EXTRA_OURS.values()],
         rows,
         sorted(set(missing)),
-        "S.R. over the evaluation trials, C.T. normalized by the timeout; mean \u00b1 std over training seeds.",
+        "S.R. over the evaluation trials, C.T. normalized by the timeout; mean \u00b1 std over training seeds. "
+        "Ours, path only: Ours' hierarchy with every subgoal on the planned path (`level.follow_path=true`), the bar "
+        "its learned high level has to clear. Ours, legged: the same policies on Go1s walked by the shipped "
+        "locomotion policy (`lowlevel=go1`), the figure to hold against the paper's legged robots.",
+        findings,
+        panels,
     )
 
 
@@ -123,6 +165,11 @@ def ocb_table(results: list[dict], variant: str) -> Table:
     columns, rows, missing = [], [], []
     for name in paper["evals"]:
         columns += [f"S.R. (%), {paper['eval_labels'][name]}", f"C.T. (s), {paper['eval_labels'][name]}"]
+    curve = next((r["curve"] for r in mine if r.get("curve")), None)
+    if curve:
+        columns.append(
+            f"Env-steps (M) to {100 * float(curve['reach']):.0f} % S.R., {paper['eval_labels'][curve['eval']]}"
+        )
     for method in paper["methods"]:
         cells = []
         for name in paper["evals"]:
@@ -135,7 +182,11 @@ def ocb_table(results: list[dict], variant: str) -> Table:
                 if not cell.values:
                     missing.append(f"{method} / {name} / {metric}: no finished job")
                 cells.append(cell)
+        if curve:
+            cells.append(_reach_cell(_matching(mine, method=method)))
         rows.append(([paper["labels"][method]], cells))
+    arms = {paper["labels"][m]: _matching(mine, method=m) for m in paper["methods"]}
+    findings = _ocb_findings(paper, rows, arms)
     return Table(
         f"ocb_ablation_{variant}",
         f"OCB ablation ({variant}): ours (paper)",
@@ -144,7 +195,30 @@ def ocb_table(results: list[dict], variant: str) -> Table:
         rows,
         missing,
         "Free space, 1.5 m cuboid of 6 kg, 2 robots, subgoals 1.5-3 m away; mean \u00b1 std over training seeds.",
+        findings,
+        {f"OCB ablation, {paper['eval_labels'][curve['eval']]}" if curve else "": arms},
     )
+
+
+def _ocb_findings(paper: dict, rows: list, arms: dict[str, list[dict]]) -> list[str]:
+    """The paper's OCB finding (success at each timeout, with against without) checked on our cells, and whether
+    each arm's budget has flattened."""
+    findings = []
+    (_, with_ocb), (_, without) = rows
+    for k, name in enumerate(paper["evals"]):
+        ours, other = with_ocb[2 * k], without[2 * k]
+        if len(ours.values) < 2 or len(other.values) < 2:
+            continue
+        gap = np.mean(ours.values) - np.mean(other.values)
+        spread = float(np.hypot(np.std(ours.values), np.std(other.values)))
+        p_ours, p_other = (paper["success_rate"][name][m][0] for m in paper["methods"])
+        verdict = "holds" if gap > spread else ("does not hold" if gap <= 0 else "is within the seeds' spread")
+        findings.append(
+            f"{paper['eval_labels'][name]}: the paper's OCB gain in S.R. ({p_ours:.0f} vs {p_other:.0f} %) {verdict} "
+            f"here: {gap:+.1f} points (std over seeds {spread:.1f})"
+        )
+    findings += filter(None, (plots.budget_verdict(label, results) for label, results in arms.items()))
+    return findings
 
 
 def scale_table(results: list[dict], variant: str) -> Table:
@@ -161,6 +235,12 @@ def scale_table(results: list[dict], variant: str) -> Table:
         if not cells[0].values:
             missing.append(f"{n} robots: no finished job")
         rows.append(([str(n)], cells))
+    lines = {f"{n} robots": _matching(mine, num_agents=n) for n in counts}
+    findings = list(filter(None, (plots.budget_verdict(label, r) for label, r in lines.items())))
+    measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
+    if measured:
+        best = max(measured)
+        findings.insert(0, f"Best robot count here: {best[2]} ({best[0]:.1f} \u00b1 {best[1]:.1f} % S.R.)")
     return Table(
         f"scale_{variant}",
         f"Scalability, cylinder ({variant})",
@@ -170,6 +250,8 @@ def scale_table(results: list[dict], variant: str) -> Table:
         missing,
         "Whole hierarchy; C.T. normalized by the timeout; mean \u00b1 std over training seeds. "
         "The paper gives a figure only.",
+        findings,
+        {"Cylinder": lines},
     )
 
 
@@ -179,6 +261,8 @@ def markdown(table: Table) -> str:
     for labels, cells in table.rows:
         lines.append("| " + " | ".join([*labels, *(c.text() for c in cells)]) + " |")
     lines += ["", table.note]
+    if table.findings:
+        lines += ["", *(f"- {f}" for f in table.findings)]
     if table.missing:
         lines += ["", f"Missing cells ({MISSING}):", *(f"- {m}" for m in table.missing)]
     return "\n".join(lines) + "\n"
@@ -229,38 +313,11 @@ def sidecar(table: Table) -> dict:
         for labels, cells in table.rows
         for column, cell in zip(table.columns, cells, strict=True)
     ]
-    return {"table": table.name, "title": table.title, "cells": cells, "missing": table.missing}
+    return {"table": table.name, "title": table.title, "cells": cells, "missing": table.missing,
+            "findings": table.findings}  # fmt: skip
 
 
-def scale_plot(table: Table, path: Path) -> None:
-    """S.R. and C.T. against the number of robots, with std error bars."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))
-    counts = [int(labels[0]) for labels, _ in table.rows]
-    for ax, k, label in ((axes[0], 0, "S.R. (%)"), (axes[1], 1, "C.T. (normalized)")):
-        pts = [
-            (n, np.mean(cells[k].values), np.std(cells[k].values))
-            for n, (_, cells) in zip(counts, table.rows, strict=True)
-            if cells[k].values
-        ]
-        if pts:
-            n, m, s = zip(*pts, strict=True)
-            ax.errorbar(n, m, yerr=s, marker="o", capsize=3)
-        ax.set_xlabel("robots")
-        ax.set_ylabel(label)
-        ax.set_xticks(counts)
-        ax.grid(alpha=0.3)
-    fig.suptitle(table.title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def write_tables(root: Path, out: Path) -> list[Table]:
+def write_tables(root: Path, out: Path, kinds: list[str] | None = None) -> list[Table]:
     """Write every table of every sweep variant under `root` to `out`; the quick budget's even when empty.
 
     A variant is a budget plus any stage overrides of the sweep (`result.json`'s `variant`), so that a smoke or
@@ -270,11 +327,10 @@ def write_tables(root: Path, out: Path) -> list[Table]:
     variants = sorted({r["variant"] for r in results} | {"quick"})
     out.mkdir(parents=True, exist_ok=True)
     tables = []
-    builders = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table}
     for variant in variants:
         present = {r["table"] for r in results if r["variant"] == variant}
-        for kind, build in builders.items():
-            if variant != "quick" and kind not in present:
+        for kind, build in BUILDERS.items():
+            if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
                 continue
             table = build(results, variant)
             (out / f"{table.name}.md").write_text(markdown(table))
@@ -282,6 +338,11 @@ def write_tables(root: Path, out: Path) -> list[Table]:
             (out / f"{table.name}.csv").write_text(csv_text(table))
             (out / f"{table.name}.json").write_text(json.dumps(sidecar(table), indent=2) + "\n")
             if kind == "scale":
-                scale_plot(table, out / f"{table.name}.png")
+                plots.scale_plot(table, out / f"{table.name}.png")
+            plots.curves_plot(table.curves, out / f"{table.name}_curves.png", f"{table.title}: learning curves")
             tables.append(table)
     return tables
+
+
+BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table}
+"""Each table `mapush tables` writes, by the `table` its experiment names."""

@@ -1,0 +1,65 @@
+"""Learning curves: a run's checkpoints evaluated as `mapush eval` does, and what can be read off them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mapush.eval.rollout import evaluate_quietly
+from mapush.rl.runner import checkpoint_iteration, checkpoints, env_steps_per_iteration
+
+
+def env_steps_at(cfg: dict, iteration: int) -> int:
+    """50 Hz env-steps trained after `iteration` (0-based) of a run of `cfg`."""
+    return (iteration + 1) * env_steps_per_iteration(cfg)
+
+
+def curve_checkpoints(run_dir: Path, cfg: dict, every_env_steps: float) -> list[Path]:
+    """The last checkpoint at or before every multiple of `every_env_steps`, and the run's last one."""
+    found = checkpoints(run_dir)
+    if not found:
+        return []
+    steps = np.array([env_steps_at(cfg, checkpoint_iteration(p)) for p in found])
+    chosen = []
+    for mark in np.arange(every_env_steps, steps[-1] + every_env_steps, every_env_steps):
+        before = np.flatnonzero(steps <= mark + 1e-6)
+        if len(before) and found[before[-1]] not in chosen:
+            chosen.append(found[before[-1]])
+    if found[-1] not in chosen:
+        chosen.append(found[-1])
+    return chosen
+
+
+def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: int, seeds: list[int]) -> list[dict]:
+    """Evaluated success and completion time of the run's checkpoints (`curve_checkpoints`), under `cfg`."""
+    points = []
+    for checkpoint in curve_checkpoints(run_dir, cfg, every_env_steps):
+        summary = evaluate_quietly(cfg, checkpoint, episodes, seeds)
+        iteration = checkpoint_iteration(checkpoint)
+        points.append({
+            "iteration": iteration,
+            "env_steps": env_steps_at(cfg, iteration),
+            "success_rate": summary["success_rate"],
+            "success_rate_std": summary["success_rate_std"],
+            "completion_time": summary["completion_time"],
+        })  # fmt: skip
+    return points
+
+
+def first_reaching(points: list[dict], threshold: float) -> dict | None:
+    """The first point whose success rate is at least `threshold` (its keys but the rates), or None."""
+    for point in points:
+        if point["success_rate"] >= threshold - 1e-9:
+            return {k: v for k, v in point.items() if not k.startswith(("success", "completion"))}
+    return None
+
+
+def tail_gain(points: list[dict], tail: float) -> float | None:
+    """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus the rate of the
+    last point at or before (1 - tail) of the final env-steps; None with no such earlier point."""
+    if not points:
+        return None
+    cut = (1 - tail) * points[-1]["env_steps"]
+    before = [p for p in points if p["env_steps"] <= cut + 1e-6]
+    return points[-1]["success_rate"] - before[-1]["success_rate"] if before else None

@@ -1,0 +1,103 @@
+"""Stages trained once: a stage is identified by its composed config, and every sweep under one `sweep_root`
+shares one store of finished stages.
+
+The identity of a stage is a hash of its composed, resolved config (budget included, as `train.iterations`),
+less what says where it is written, how it is logged or evaluated, and how many threads ran it (`IGNORED`); a
+frozen stage it builds on (`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or
+of two experiments, whose stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to
+the config (a reward weight, the tracker's calibration, the budget) is another identity, so another run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+from pathlib import Path
+
+from omegaconf import OmegaConf
+
+from mapush.config import compose_config, to_plain
+from mapush.rl.runner import POLICY_FILE, checkpoint_iteration, checkpoints
+
+STORE = "stages"
+"""The store's folder under `sweep_root`."""
+IGNORED = (
+    "train.run_root",
+    "train.progress",
+    "train.rollout_threads",
+    "train.update_threads",
+    "sim.nthread",
+    "device",
+    "log",
+    "eval",
+    "bench",
+)
+"""Config keys that change where and how a stage runs, not what it learns."""
+STAGE_REF = "@"
+"""An override value `@STAGE` (e.g. `mid=@mid`) stands for that earlier stage's run dir."""
+IDENTITY_FILE = "stage.yaml"
+
+
+def compose_stage(overrides: list[str], iterations_of) -> dict:
+    """The stage's composed config (plain) with its budget: `iterations_of(cfg)` becomes `train.iterations`.
+
+    Overrides that refer to an earlier stage (`key=@stage`) are left out here; `identity` adds them.
+    """
+    cfg = compose_config([o for o in overrides if not _is_ref(o)])
+    OmegaConf.update(cfg, "train.iterations", iterations_of(cfg))
+    return to_plain(cfg)
+
+
+def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str:
+    """The stage's identity: a hash of `cfg` less `IGNORED`, with `key=@stage` set to that stage's identity."""
+    view = OmegaConf.create(cfg)
+    for key in IGNORED:
+        parent, _, leaf = key.rpartition(".")
+        node = OmegaConf.select(view, parent) if parent else view
+        if node is not None and leaf in node:
+            node.pop(leaf)
+    for override in filter(_is_ref, overrides):
+        key, _, value = override.partition("=")
+        OmegaConf.update(view, key, f"stage:{identities[value[len(STAGE_REF) :]]}", force_add=True)
+    text = json.dumps(OmegaConf.to_container(view), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def stage_dir(sweep_root: Path, key: str) -> Path:
+    """Where the run of stage `key` lives (its run dir is below, as `mapush train` names it)."""
+    return Path(sweep_root) / STORE / key
+
+
+def status(directory: Path, iterations: int) -> str:
+    """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
+    for run_dir in sorted(p.parent for p in Path(directory).glob("**/config.yaml")):
+        if (run_dir / POLICY_FILE).is_file():
+            return "finished"
+        found = checkpoints(run_dir)
+        if found:
+            return f"resume from {checkpoint_iteration(found[-1]) + 1}/{iterations}"
+    return "new"
+
+
+def write_identity(directory: Path, cfg: dict, key: str) -> None:
+    """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run."""
+    Path(directory).mkdir(parents=True, exist_ok=True)
+    OmegaConf.save(OmegaConf.create({"identity": key, "config": cfg}), Path(directory) / IDENTITY_FILE)
+
+
+@contextlib.contextmanager
+def held(directory: Path):
+    """Hold the stage's lock: a second job needing the same stage waits, then finds it finished."""
+    Path(directory).mkdir(parents=True, exist_ok=True)
+    with open(Path(directory) / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def _is_ref(override: str) -> bool:
+    return override.partition("=")[2].startswith(STAGE_REF)

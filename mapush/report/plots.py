@@ -1,0 +1,117 @@
+"""The tables' plots, and what is read off the learning curves of sweep jobs (`result.json`'s `curve`: the
+evaluated stage's checkpoints, evaluated as one of the experiment's evaluations): the env-steps to a success
+rate, and whether a budget has flattened."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mapush.eval.curves import first_reaching, tail_gain
+
+
+def seed_curves(results: list[dict]) -> list[list[dict]]:
+    """The curve points of each result that has a curve (one list per training seed)."""
+    return [r["curve"]["points"] for r in results if r.get("curve") and r["curve"]["points"]]
+
+
+def mean_curve(per_seed: list[list[dict]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(env-steps, mean success, std success) over seeds, at the env-steps every seed was evaluated at."""
+    shared = sorted(set.intersection(*(set(p["env_steps"] for p in points) for points in per_seed)))
+    rates = np.array([[{p["env_steps"]: p["success_rate"] for p in points}[x] for x in shared] for points in per_seed])
+    return np.array(shared, dtype=float), rates.mean(0), rates.std(0)
+
+
+def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
+    """Env-steps (millions) at which each result's curve first reached its `reach` success rate, the job dirs of
+    those, and how many curves never reached it."""
+    values, sources, unreached = [], [], 0
+    for r in results:
+        curve = r.get("curve")
+        if not curve or not curve["points"]:
+            continue
+        hit = first_reaching(curve["points"], float(curve["reach"]))
+        if hit is None:
+            unreached += 1
+        else:
+            values.append(hit["env_steps"] / 1e6)
+            sources.append(r["job_dir"])
+    return values, sources, unreached
+
+
+def budget_verdict(label: str, results: list[dict]) -> str | None:
+    """Whether the budget of `results` has flattened by their experiment's rule (the success gained over the
+    last `tail` of the env-steps, mean over seeds, below `max_gain`); None without curves."""
+    curves = [r["curve"] for r in results if r.get("curve") and r["curve"]["points"]]
+    if not curves:
+        return None
+    rule = curves[0]["rule"]
+    gains = [g for g in (tail_gain(c["points"], float(rule["tail"])) for c in curves) if g is not None]
+    if not gains:
+        return f"{label}: too few checkpoints to judge the budget"
+    mean, std = 100 * np.mean(gains), 100 * np.std(gains)
+    verdict = "flattened" if mean < 100 * float(rule["max_gain"]) else "NOT flattened: still learning"
+    return (
+        f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
+        f"points over {len(gains)} seeds (rule: < {100 * float(rule['max_gain']):.0f}): {verdict}"
+    )
+
+
+def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str) -> bool:
+    """Evaluated success against env-steps, mean +- std over seeds: one panel per key of `panels`, one line per
+    label (`{panel: {label: results}}`). Returns False (and draws nothing) when no result has a curve."""
+    drawn = {p: {k: seed_curves(v) for k, v in lines.items()} for p, lines in panels.items()}
+    drawn = {p: {k: v for k, v in lines.items() if v} for p, lines in drawn.items()}
+    drawn = {p: lines for p, lines in drawn.items() if lines}
+    if not drawn:
+        return False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(drawn), figsize=(4.6 * len(drawn), 3.4), squeeze=False, sharey=True)
+    for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
+        for label, per_seed in lines.items():
+            x, mean, std = mean_curve(per_seed)
+            ax.plot(x / 1e6, 100 * mean, marker="o", ms=3, label=f"{label} ({len(per_seed)} seeds)")
+            ax.fill_between(x / 1e6, 100 * (mean - std), 100 * (mean + std), alpha=0.2)
+        ax.set_title(panel)
+        ax.set_xlabel("env-steps (M)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0][0].set_ylabel("evaluated success (%)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return True
+
+
+def scale_plot(table, path: Path) -> None:
+    """S.R. and C.T. against the number of robots, with std error bars."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))
+    counts = [int(labels[0]) for labels, _ in table.rows]
+    for ax, k, label in ((axes[0], 0, "S.R. (%)"), (axes[1], 1, "C.T. (normalized)")):
+        pts = [
+            (n, np.mean(cells[k].values), np.std(cells[k].values))
+            for n, (_, cells) in zip(counts, table.rows, strict=True)
+            if cells[k].values
+        ]
+        if pts:
+            n, m, s = zip(*pts, strict=True)
+            ax.errorbar(n, m, yerr=s, marker="o", capsize=3)
+        ax.set_xlabel("robots")
+        ax.set_ylabel(label)
+        ax.set_xticks(counts)
+        ax.grid(alpha=0.3)
+    fig.suptitle(table.title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,70 @@
+"""Stages trained once: identity from the composed config, reuse across jobs and experiments, the dry run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from mapush.config import compose_config
+from mapush.experiments.pipeline import RESULT, planned_stages
+
+SMOKE = ["budget=smoke", "debug=smoke"]
+
+
+def _identities(*overrides: str) -> dict[str, str]:
+    cfg = compose_config(["experiment=main", "method=ours", "task=cuboid", *overrides], config_name="sweep")
+    return {stage.name: stage.identity for stage in planned_stages(cfg)}
+
+
+def test_equal_stage_configs_have_one_identity_whatever_the_job_that_composes_them():
+    # SA's mid level of the cylinder is the scalability study's 1-robot mid level, composed from other overrides
+    sa = compose_config(["experiment=main", "method=sa", "task=cylinder"], config_name="sweep")
+    scale = compose_config(["experiment=scale", "method=ours", "task=cylinder", "agents=1"], config_name="sweep")
+    assert [s.identity for s in planned_stages(sa)] == [s.identity for s in planned_stages(scale)]
+    # where a stage is written, with how many threads, and how it is logged do not make another stage
+    assert _identities() == _identities("overrides=['sim.nthread=1','log.episode_interval=0','train.progress=false']")
+
+
+def test_a_changed_reward_weight_tracker_value_or_budget_is_another_stage():
+    base = _identities()
+    for changed in (
+        "method.stages.mid=['level=mid','reward.terms.ocb.weight=0.01']",
+        "overrides=['lowlevel.max_force=40.0']",
+        "experiment.budgets.quick.stages.mid.env_steps=5.0e6",
+        "seed=1",
+    ):
+        other = _identities(changed)
+        assert other["mid"] != base["mid"], changed
+        assert other["high"] != base["high"], changed  # the high level sits on another mid level
+    # a high-level change leaves the mid level shared
+    high_only = _identities("experiment.budgets.quick.stages.high.env_steps=3.0e6")
+    assert high_only["mid"] == base["mid"] and high_only["high"] != base["high"]
+
+
+def _sweep(cli, root, *args):
+    return cli(*args, *SMOKE, f"sweep_root={root}")
+
+
+def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_says_so(cli, tmp_path, snapshot):
+    root = tmp_path / "sweeps"
+    plan = _sweep(cli, root, "sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder")
+    assert plan.returncode == 0, plan.stderr
+    assert "2 to train" in plan.stdout and plan.stdout.count("  train  ") == 2
+    assert not root.exists()  # the dry run trains and writes nothing
+
+    first = _sweep(cli, root, "sweep", "experiment=main", "method=sa", "task=cylinder")
+    assert first.returncode == 0, first.stdout + first.stderr
+    before = snapshot(root)
+    plan = _sweep(cli, root, "scale", "--agents", "1", "--dry-run")
+    assert plan.returncode == 0, plan.stderr
+    assert "0 to train" in plan.stdout and plan.stdout.count("  reuse  ") == 2
+    assert snapshot(root) == before
+
+    second = _sweep(cli, root, "scale", "--agents", "1")
+    assert second.returncode == 0, second.stdout + second.stderr
+    results = [json.loads(p.read_text()) for p in sorted(root.glob(f"*/*/{RESULT}"))]
+    assert sorted(r["experiment"] for r in results) == ["main", "scale"]
+    assert results[0]["stages"] == results[1]["stages"]  # both cells name the same run dirs
+    assert len(list((root / "stages").glob("*/**/config.yaml"))) == 2  # one mid and one high run in all
+    for run in map(Path, results[0]["stages"].values()):
+        assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]  # trained once, not resumed

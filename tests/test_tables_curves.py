@@ -1,0 +1,88 @@
+"""Learning curves in the tables: env-steps to a success rate, the budget rule, the paper's OCB finding checked,
+the curves plot; from fixture job results with hand-made curves."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from mapush.eval.curves import tail_gain
+from mapush.experiments.pipeline import RESULT
+
+RULE = {"tail": 0.2, "max_gain": 0.03}
+CURVES = {  # success at 1, 2, 3, 4, 5 M env-steps, per seed
+    "ours": [[0.2, 0.5, 0.6, 0.7, 0.71], [0.3, 0.4, 0.55, 0.66, 0.68], [0.1, 0.2, 0.3, 0.6, 0.63]],
+    "ours_no_ocb": [[0.1, 0.2, 0.3, 0.4, 0.45], [0.1, 0.3, 0.5, 0.5, 0.5], [0.0, 0.1, 0.1, 0.2, 0.3]],
+}
+FINAL_T20 = {"ours": [0.6, 0.7, 0.8], "ours_no_ocb": [0.4, 0.5, 0.3]}
+
+
+def _write(root: Path, method: str, seed: int) -> None:
+    job = root / "ocb_ablation_quick" / f"method={method},seed={seed}"
+    job.mkdir(parents=True)
+    points = [
+        {"iteration": k, "env_steps": (k + 1) * 1_000_000, "success_rate": sr, "success_rate_std": 0.0}
+        for k, sr in enumerate(CURVES[method][seed])
+    ]
+    sr = FINAL_T20[method][seed]
+    result = {
+        "table": "ocb_ablation",
+        "variant": "quick",
+        "method": method,
+        "task": "ocb_cuboid",
+        "num_agents": 2,
+        "seed": seed,
+        "evals": {
+            "t20": {"success_rate": sr, "completion_time": 0.8, "completion_time_s": 16.0},
+            "t40": {"success_rate": sr, "completion_time": 0.6, "completion_time_s": 24.0},
+        },
+        "curve": {"eval": "t20", "every_env_steps": 1e6, "reach": 0.5, "rule": RULE, "points": points},
+    }
+    (job / RESULT).write_text(json.dumps(result))
+
+
+@pytest.fixture
+def curve_runs(tmp_path) -> Path:
+    for method in CURVES:
+        for seed in range(3):
+            _write(tmp_path / "runs", method, seed)
+    return tmp_path / "runs"
+
+
+def test_tail_gain_is_the_success_added_over_the_last_fifth():
+    points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate([0.2, 0.5, 0.6, 0.7, 0.74])]
+    assert tail_gain(points, 0.2) == pytest.approx(0.04)  # 5M: 0.74, at or before 4M: 0.70
+    assert tail_gain(points, 0.5) == pytest.approx(0.24)  # at or before 2.5M: 0.50
+    assert tail_gain(points[:1], 0.2) is None
+
+
+def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
+    proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    md = (tmp_path / "out" / "ocb_ablation_quick.md").read_text()
+    assert "Env-steps (M) to 50 % S.R., timeout 20 s" in md
+    # ours reaches 50 % at 2, 3 and 4 M -> 3.00 +- 0.82; without OCB only seed 1 does, at 3 M
+    assert "| 3.00 \u00b1 0.82 |" in md
+    assert "| 3.00 (1 seed) (2 of 3 seeds never) |" in md
+    # final S.R. at 20 s: 70.0 +- 8.2 against 40.0 +- 8.2: a gap of 30 points, spread hypot(8.16, 8.16) = 11.5
+    assert "the paper's OCB gain in S.R. (57 vs 13 %) holds here: +30.0 points (std over seeds 11.5)" in md
+    # last fifth: ours gains 1, 2, 3 points -> +2.0 +- 0.8; without OCB 5, 0, 10 -> +5.0 +- 4.1
+    assert "Ours: the last 20 % of the budget added +2.0 \u00b1 0.8 points over 3 seeds (rule: < 3): flattened" in md
+    assert "Ours w/o OCB: the last 20 % of the budget added +5.0 \u00b1 4.1 points over 3 seeds (rule: < 3): NOT" in md
+    side = json.loads((tmp_path / "out" / "ocb_ablation_quick.json").read_text())
+    reach = [c for c in side["cells"] if c["column"].startswith("Env-steps")]
+    assert [(c["seeds"], c["unreached"], len(c["sources"])) for c in reach] == [(3, 0, 3), (1, 2, 1)]
+    assert (tmp_path / "out" / "ocb_ablation_quick_curves.png").stat().st_size > 1000
+
+
+def test_tables_can_write_one_table_and_refuse_an_unknown_one(cli, tmp_path, curve_runs):
+    proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out", "--table", "ocb_ablation")
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        f"ocb_ablation_quick{ext}" for ext in (".csv", ".json", ".md", ".tex", "_curves.png")
+    ]
+    proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "other", "--table", "table9")
+    assert proc.returncode == 2 and "'table9'" in proc.stderr and "valid: main, ocb_ablation, scale" in proc.stderr
+    assert not (tmp_path / "other").exists()
