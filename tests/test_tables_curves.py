@@ -67,7 +67,10 @@ def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_
     assert "| 3.00 \u00b1 0.82 |" in md
     assert "| 3.00 (1 seed) (2 of 3 seeds never) |" in md
     # final S.R. at 20 s: 70.0 +- 8.2 against 40.0 +- 8.2: a gap of 30 points, spread hypot(8.16, 8.16) = 11.5
-    assert "the paper's OCB gain in S.R. (57 vs 13 %) holds here: +30.0 points (std over seeds 11.5)" in md
+    assert "timeout 20 s: the paper's OCB gain in S.R. (57 vs 13) holds here: +30.0 points (std over seeds 11.5)" in md
+    # C.T. 16 s in both arms: no saving, against the paper's 14.9 vs 18.3 s
+    assert "the paper's OCB saving in C.T. (14.9 vs 18.3) does not hold here: +0.0 s (std over seeds 0.0)" in md
+    assert "timeout 20 s (the paper measured none): Ours 3.00 \u00b1 0.82; Ours w/o OCB 3.00 (1 seed) (2 of 3" in md
     # last fifth: ours gains 1, 2, 3 points -> +2.0 +- 0.8; without OCB 5, 0, 10 -> +5.0 +- 4.1
     assert "Ours: the last 20 % of the budget added +2.0 \u00b1 0.8 points over 3 seeds (rule: < 3): flattened" in md
     assert "Ours w/o OCB: the last 20 % of the budget added +5.0 \u00b1 4.1 points over 3 seeds (rule: < 3): NOT" in md
