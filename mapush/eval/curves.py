@@ -57,9 +57,9 @@ def first_reaching(points: list[dict], threshold: float) -> dict | None:
 
 def tail_gain(points: list[dict], tail: float) -> float | None:
     """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus the rate of the
-    last point at or before (1 - tail) of the final env-steps; None with no such earlier point."""
-    if not points:
+    earlier point nearest to (1 - tail) of the final env-steps (the earlier of two as near); None with one point."""
+    if len(points) < 2:
         return None
     cut = (1 - tail) * points[-1]["env_steps"]
-    before = [p for p in points if p["env_steps"] <= cut + 1e-6]
-    return points[-1]["success_rate"] - before[-1]["success_rate"] if before else None
+    start = min(points[:-1], key=lambda p: (abs(p["env_steps"] - cut), p["env_steps"]))
+    return points[-1]["success_rate"] - start["success_rate"]

@@ -347,7 +347,8 @@ def write_tables(root: Path, out: Path, kinds: list[str] | None = None) -> list[
             (out / f"{table.name}.json").write_text(json.dumps(sidecar(table), indent=2) + "\n")
             if kind == "scale":
                 plots.scale_plot(table, out / f"{table.name}.png")
-            plots.curves_plot(table.curves, out / f"{table.name}_curves.png", f"{table.title}: learning curves")
+            title = f"{table.title.split(':')[0]}: learning curves, evaluated checkpoints"
+            plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
             tables.append(table)
     return tables
 
