@@ -50,7 +50,7 @@ def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: i
 def first_reaching(points: list[dict], threshold: float) -> dict | None:
     """The first point whose success rate is at least `threshold` (its keys but the rates), or None."""
     for point in points:
-        if point["success_rate"] >= threshold - 1e-9:
+        if point["success_rate"] >= threshold - 1e-6:  # rates are float32 means: 0.6 may be 0.59999996
             return {k: v for k, v in point.items() if not k.startswith(("success", "completion"))}
     return None
 
