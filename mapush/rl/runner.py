@@ -27,7 +27,7 @@ class MapushRunner(OnPolicyRunner):
 
     Torch runs the rollout on `threads[0]` threads and the PPO update on `threads[1]`: between two policy calls
     of the rollout MuJoCo steps the batch on every core, and idle torch workers spinning beside it slowed physics
-    by 40 % on 2 cores (`mapush bench`'s breakdown); the update has the cores to itself.
+    by a third on 2 cores (`mapush bench`'s breakdown); the update has the cores to itself.
     """
 
     def __init__(
