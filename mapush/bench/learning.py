@@ -23,9 +23,8 @@ from omegaconf import DictConfig
 
 from mapush.config import load_run_config, to_plain
 from mapush.errors import BadInput
-from mapush.eval.curves import env_steps_at, first_reaching
-from mapush.eval.rollout import evaluate_quietly
-from mapush.rl.runner import checkpoint_iteration, checkpoints
+from mapush.eval.curves import evaluate_points, first_reaching, last_before_marks
+from mapush.rl.runner import checkpoints
 
 
 def train_for(overrides: list[str], minutes: float, save_interval: int, run_root: Path) -> tuple[Path, float]:
@@ -50,15 +49,9 @@ def train_for(overrides: list[str], minutes: float, save_interval: int, run_root
 
 def checkpoint_marks(run_dir: Path, launched: float, every_min: float) -> list[tuple[float, Path]]:
     """(minutes since launch, checkpoint): the last checkpoint written before each mark of `every_min` minutes."""
-    timed = [((p.stat().st_mtime - launched) / 60, p) for p in checkpoints(run_dir)]
-    if not timed:
-        return []
-    marks, chosen = np.arange(every_min, timed[-1][0] + every_min, every_min), []
-    for mark in marks:
-        before = [t for t in timed if t[0] <= mark + 1e-9]
-        if before and (not chosen or chosen[-1][1] != before[-1][1]):
-            chosen.append(before[-1])
-    return chosen
+    found = checkpoints(run_dir)
+    minutes = [(p.stat().st_mtime - launched) / 60 for p in found]
+    return [(minutes[k], found[k]) for k in last_before_marks(minutes, every_min)]
 
 
 def recipe(cfg: dict) -> dict:
@@ -80,18 +73,14 @@ def run_learning_bench(cfg: DictConfig, overrides: list[str], minutes: float, ru
     run_dir, launched = train_for(overrides, minutes, int(learn.save_interval), run_root)
     run_cfg = to_plain(load_run_config(run_dir))
     points = []
+    episodes, seeds = int(run_cfg["eval"]["episodes"]), list(run_cfg["eval"]["seeds"])
     for at_min, checkpoint in checkpoint_marks(run_dir, launched, float(learn.eval_every_min)):
-        summary = evaluate_quietly(run_cfg, checkpoint, run_cfg["eval"]["episodes"], list(run_cfg["eval"]["seeds"]))
-        iteration = checkpoint_iteration(checkpoint)
-        points.append({
-            "minutes": round(at_min, 3),
-            "iteration": iteration,
-            "env_steps": env_steps_at(run_cfg, iteration),
-            "success_rate": summary["success_rate"],
-            "success_rate_std": summary["success_rate_std"],
-            "completion_time": summary["completion_time"],
-        })  # fmt: skip
-        print(f"{at_min:5.2f} min  it {iteration:5d}  success {100 * summary['success_rate']:5.1f} %", file=sys.stderr)
+        point = {"minutes": round(at_min, 3), **evaluate_points(run_cfg, [checkpoint], episodes, seeds)[0]}
+        points.append(point)
+        print(
+            f"{at_min:5.2f} min  it {point['iteration']:5d}  success {100 * point['success_rate']:5.1f} %",
+            file=sys.stderr,
+        )
     return {
         "level": run_cfg["level"]["name"],
         "task": run_cfg["task"]["name"],

@@ -15,26 +15,29 @@ def env_steps_at(cfg: dict, iteration: int) -> int:
     return (iteration + 1) * env_steps_per_iteration(cfg)
 
 
-def curve_checkpoints(run_dir: Path, cfg: dict, every_env_steps: float) -> list[Path]:
-    """The last checkpoint at or before every multiple of `every_env_steps`, and the run's last one."""
-    found = checkpoints(run_dir)
-    if not found:
-        return []
-    steps = np.array([env_steps_at(cfg, checkpoint_iteration(p)) for p in found])
-    chosen = []
-    for mark in np.arange(every_env_steps, steps[-1] + every_env_steps, every_env_steps):
-        before = np.flatnonzero(steps <= mark + 1e-6)
-        if len(before) and found[before[-1]] not in chosen:
-            chosen.append(found[before[-1]])
-    if found[-1] not in chosen:
-        chosen.append(found[-1])
+def last_before_marks(values: list[float], every: float) -> list[int]:
+    """Indices of the last of the increasing `values` at or before every multiple of `every`, each once."""
+    chosen: list[int] = []
+    for mark in np.arange(every, values[-1] + every, every) if values else []:
+        before = [k for k, v in enumerate(values) if v <= mark + 1e-6]
+        if before and before[-1] not in chosen:
+            chosen.append(before[-1])
     return chosen
 
 
-def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: int, seeds: list[int]) -> list[dict]:
-    """Evaluated success and completion time of the run's checkpoints (`curve_checkpoints`), under `cfg`."""
+def curve_checkpoints(run_dir: Path, cfg: dict, every_env_steps: float) -> list[Path]:
+    """The last checkpoint at or before every multiple of `every_env_steps`, and the run's last one."""
+    found = checkpoints(run_dir)
+    chosen = last_before_marks([env_steps_at(cfg, checkpoint_iteration(p)) for p in found], every_env_steps)
+    if found and len(found) - 1 not in chosen:
+        chosen.append(len(found) - 1)
+    return [found[k] for k in chosen]
+
+
+def evaluate_points(cfg: dict, checkpoints_: list[Path], episodes: int, seeds: list[int]) -> list[dict]:
+    """Evaluated success and completion time of each checkpoint under `cfg`, with its iteration and env-steps."""
     points = []
-    for checkpoint in curve_checkpoints(run_dir, cfg, every_env_steps):
+    for checkpoint in checkpoints_:
         summary = evaluate_quietly(cfg, checkpoint, episodes, seeds)
         iteration = checkpoint_iteration(checkpoint)
         points.append({
@@ -45,6 +48,11 @@ def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: i
             "completion_time": summary["completion_time"],
         })  # fmt: skip
     return points
+
+
+def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: int, seeds: list[int]) -> list[dict]:
+    """Evaluated success and completion time of the run's checkpoints (`curve_checkpoints`), under `cfg`."""
+    return evaluate_points(cfg, curve_checkpoints(run_dir, cfg, every_env_steps), episodes, seeds)
 
 
 def first_reaching(points: list[dict], threshold: float) -> dict | None:

@@ -115,16 +115,13 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
         raise BadInput(f"checkpoint {str(path)!r} does not exist; valid: a model_<iteration>.pt of a run dir")
     try:  # weights only: a checkpoint holding any other object could run code when unpickled, so it is refused
         data = torch.load(path, weights_only=True, map_location="cpu")
+        trained_dim = actor_input_dim(data)
     except pickle.UnpicklingError:
         raise BadInput(
             f"checkpoint {str(path)!r} holds objects other than weights and was not loaded (loading it could run "
             "code); valid: a checkpoint of tensors, numbers and strings, as mapush writes"
         ) from None
-    except Exception as err:  # a truncated or foreign file
-        raise BadInput(f"checkpoint {str(path)!r} is not an rsl-rl checkpoint ({type(err).__name__})") from None
-    try:
-        trained_dim = actor_input_dim(data)
-    except Exception as err:  # weights, but not an actor's
+    except Exception as err:  # a truncated or foreign file, or weights but not an actor's
         raise BadInput(f"checkpoint {str(path)!r} is not an rsl-rl checkpoint ({type(err).__name__})") from None
     if trained_dim != obs_dim:
         level = runner.env.cfg["level"]["name"]
