@@ -8,12 +8,13 @@ import os
 import subprocess
 from pathlib import Path
 
-import yaml
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.errors import BadInput
+from mapush.schema import check_config
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parents[1] / "conf"))
 """The `conf/` tree. The package is installed in editable mode, so it sits beside `mapush/`."""
@@ -46,42 +47,29 @@ def compose_config(
 ) -> DictConfig:
     """Compose `conf/<config_name>.yaml` (a run: `config`; a sweep job: `sweep`) with Hydra overrides.
 
-    Every mistake is a BadInput naming the valid choices. `hydra=True` keeps the `hydra` node (e.g. the sweep dir).
+    Every mistake (an unknown key or group, a value of the wrong type or range: `schema.RULES`) is a BadInput
+    naming the valid choices. `hydra=True` keeps the `hydra` node (e.g. the sweep dir).
     """
-    overrides = list(overrides)
+    overrides = [_run_dir_override(o) for o in overrides] if config_name == "config" else list(overrides)
     _check_groups(overrides)
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         try:
-            return compose(config_name=config_name, overrides=overrides, return_hydra_config=hydra)
+            cfg = compose(config_name=config_name, overrides=overrides, return_hydra_config=hydra)
         except Exception as err:  # Hydra raises several types; all are the user's override mistakes
             full_key = getattr(err.__cause__, "full_key", None)
             if full_key and "not in struct" in str(err.__cause__):
                 base = compose(config_name=config_name, overrides=[o for o in overrides if full_key not in o])
                 raise BadInput(_unknown_key_message(base, str(full_key))) from None
             raise BadInput(f"bad override: {str(err).strip().splitlines()[0]}") from None
+    check_config(cfg)  # types and ranges, before anything is built or written
+    return cfg
 
 
-RUN_VALUES = {
-    "seed": (int, 0, "an integer >= 0"),
-    "num_envs": (int, 1, "an integer >= 1"),
-    "train.iterations": (int, 1, "an integer >= 1"),
-    "level.episode_length_s": (float, 1e-9, "a positive number of seconds"),
-    "level.success_distance": (float, 1e-9, "a positive distance in m"),
-}
-"""Values a user commonly overrides: (type, minimum, what is valid), checked before a run dir is made."""
-
-
-def check_run_values(cfg: DictConfig) -> None:
-    """BadInput for a mistyped or out-of-range run value (e.g. `seed=abc`, `num_envs=0`)."""
-    absent = object()
-    for key, (kind, minimum, valid) in RUN_VALUES.items():
-        value = OmegaConf.select(cfg, key, default=absent)
-        if value is absent:  # a level without this value (e.g. the low level has no success distance)
-            continue
-        ok = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
-        if not ok or value < minimum:
-            raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")
+def _run_dir_override(override: str) -> str:
+    """Hydra's `hydra.run.dir=DIR` (a Hydra app's run dir) is mapush's `train.run_dir=DIR`."""
+    key, sep, value = override.partition("=")
+    return f"train.run_dir={value}" if sep and key.lstrip("+") == "hydra.run.dir" else override
 
 
 def to_plain(cfg: DictConfig) -> dict:
@@ -101,8 +89,16 @@ def git_state() -> dict:
 
 
 def new_run_dir(cfg: DictConfig) -> Path:
-    """A fresh `runs/<level>/<subject>/<time>__seed<seed>` dir (suffixed if that name is taken). The subject is
-    the task, or what the level names instead (`level.subject`: the low level's robot)."""
+    """A fresh `runs/<level>/<subject>/<time>__seed<seed>` dir (suffixed if that name is taken), or `train.run_dir`
+    when set (it must be new or empty). The subject is the task, or what the level names instead (`level.subject`:
+    the low level's robot)."""
+    chosen = cfg.train.get("run_dir")
+    if chosen:
+        run_dir = Path(chosen)
+        if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+            raise BadInput(f"train.run_dir={chosen!r} exists and is not empty; valid: a new or empty dir")
+        run_dir.mkdir(parents=True, exist_ok=True)
+        return run_dir
     stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     subject = cfg.level.get("subject") or cfg.task.name
     base = Path(cfg.train.run_root) / cfg.level.name / subject / f"{stamp}__seed{cfg.seed}"
@@ -114,11 +110,19 @@ def new_run_dir(cfg: DictConfig) -> Path:
 
 
 def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], command: str) -> None:
-    """Write what made the run: `config.yaml` (composed), `overrides.yaml`, `meta.json` (git, seed, command)."""
+    """Write what made the run: `config.yaml` (composed), `overrides.yaml`, `meta.json` (git, seed, command), and
+    `.hydra/` as every Hydra app's run dir has it (`config.yaml`, `overrides.yaml`, `hydra.yaml`)."""
     OmegaConf.save(cfg, run_dir / "config.yaml", resolve=True)
     OmegaConf.save(OmegaConf.create(list(overrides)), run_dir / "overrides.yaml")
     meta = {"command": command, "seed": int(cfg.seed), **git_state(), "created": datetime.datetime.now().isoformat()}
     (run_dir / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+    hydra_dir = run_dir / ".hydra"
+    hydra_dir.mkdir(exist_ok=True)
+    OmegaConf.save(cfg, hydra_dir / "config.yaml", resolve=True)
+    OmegaConf.save(OmegaConf.create(list(overrides)), hydra_dir / "overrides.yaml")
+    hydra_node = compose_config(overrides, hydra=True).hydra
+    hydra_node.run.dir = str(run_dir)
+    OmegaConf.save(OmegaConf.create({"hydra": hydra_node}), hydra_dir / "hydra.yaml")
 
 
 def load_run_config(run_dir: Path) -> DictConfig:
@@ -136,7 +140,11 @@ def load_run_config(run_dir: Path) -> DictConfig:
     name = OmegaConf.select(run, "level.name", default="")
     if (CONF_DIR / "level" / f"{name}.yaml").is_file():
         root.level = level_defaults(name)
-    return OmegaConf.merge(root, run)
+    cfg = OmegaConf.merge(root, run)
+    mid = cfg.get("mid")
+    if mid and not Path(mid).is_absolute() and (Path(run_dir) / mid).exists():  # a shipped hierarchy's own mid level
+        cfg.mid = str((Path(run_dir) / mid).resolve())
+    return cfg
 
 
 def level_defaults(name: str) -> DictConfig:
@@ -159,19 +167,37 @@ SWAPPABLE_GROUPS = ("task", "level", "lowlevel", "reward")
 
 
 def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
-    """Apply `key=value` and `group=name` overrides to a saved run config (for eval of an existing run)."""
+    """Apply overrides to a saved run config (eval of an existing run), parsed by Hydra's own override grammar as
+    `mapush train` parses them: `key=value`, `+key=value` (a new key), `++key=value`, `~key` and `group=name`
+    (a group of `SWAPPABLE_GROUPS`); values and ranges are checked as for a run."""
     cfg = cfg.copy()
-    for override in overrides:
-        key, sep, value = override.partition("=")
-        if not sep:
-            raise BadInput(f"bad override {override!r}; valid: key=value")
+    OmegaConf.set_struct(cfg, False)  # a freshly composed config is in struct mode; a loaded one is not
+    parser = OverridesParser.create()
+    for text in overrides:
+        try:
+            override = parser.parse_override(text)
+        except Exception as err:  # Hydra's grammar errors: the user's typing
+            raise BadInput(f"bad override {text!r} ({str(err).strip().splitlines()[0]}); valid: key=value") from None
+        if override.is_sweep_override():
+            raise BadInput(f"override {text!r} is a sweep; valid: one value per key (sweeps: mapush sweep)")
+        key, value = override.key_or_group, override.value()
+        exists = OmegaConf.select(cfg, key, default="<missing>") != "<missing>"
         if key in GROUPS:
             if key not in SWAPPABLE_GROUPS:
                 raise BadInput(f"group {key!r} cannot change for an existing run; valid: {', '.join(SWAPPABLE_GROUPS)}")
-            _check_groups([override])
+            _check_groups([f"{key}={value}"])
             cfg[key] = OmegaConf.load(CONF_DIR / key / f"{value}.yaml")
-        elif OmegaConf.select(cfg, key, default="<missing>") == "<missing>":
+        elif override.is_delete():
+            if not exists:
+                raise BadInput(_unknown_key_message(cfg, key))
+            parent, _, leaf = key.rpartition(".")
+            node = OmegaConf.select(cfg, parent) if parent else cfg
+            node.pop(leaf)
+        elif override.is_add() and exists:
+            raise BadInput(f"config key {key!r} already exists; valid: {key}=VALUE")
+        elif not exists and not (override.is_add() or override.is_force_add()):
             raise BadInput(_unknown_key_message(cfg, key))
         else:
-            OmegaConf.update(cfg, key, yaml.safe_load(value), merge=False)
+            OmegaConf.update(cfg, key, value, merge=False, force_add=True)
+    check_config(cfg)
     return cfg

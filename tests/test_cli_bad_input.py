@@ -121,3 +121,29 @@ def test_resume_with_another_override_than_the_iteration_count(cli, run_copy, sn
     before = snapshot(run_copy)
     assert_bad_input(cli("train", "--resume", run_copy, "seed=1"), "'seed=1'", "train.iterations=N")
     assert snapshot(run_copy) == before
+
+
+@pytest.mark.parametrize(
+    ("override", "valid"),
+    [
+        ("sim.timestep=0", "a positive time step"),
+        ("sim.decimation=-1", "an integer >= 1"),
+        ("algo.algorithm.learning_rate=-1e-3", "a positive learning rate"),
+        ("algo.algorithm.gamma=1.5", "(0, 1]"),
+        ("task.object.parts.0.mass=0", "a positive mass"),
+        ("task.object.parts.0.size=[1.2,0,0.5]", "3 positive numbers"),
+        ("task.object.hull=[[0,0],[1,0],[2,0]]", "encloses no area"),
+    ],
+)
+def test_physically_meaningless_number(train_bad, override, valid):
+    key = override.partition("=")[0].replace(".0.", "[0].") if ".parts." in override else override.partition("=")[0]
+    assert_bad_input(train_bad(override), key, valid)
+
+
+def test_eval_parses_values_as_train_does(cli, run_copy, snapshot):
+    """`5e-3` is a float to Hydra (train) and was a string to YAML 1.1 (eval's old parser): now both check it."""
+    before = snapshot(run_copy)
+    assert_bad_input(cli("eval", run_copy, "sim.timestep=-5e-3"), "sim.timestep=-0.005", "a positive time step")
+    assert_bad_input(cli("eval", run_copy, "+sim.timestep=1e-3"), "'sim.timestep' already exists")
+    assert_bad_input(cli("eval", run_copy, "seed=0,1"), "is a sweep")
+    assert snapshot(run_copy) == before

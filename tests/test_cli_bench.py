@@ -30,7 +30,7 @@ def test_bench_writes_its_figures_as_json_and_no_run_dir(cli, tmp_path):
 
 
 def test_the_iteration_breakdown_adds_up_to_the_iteration_time(cfg_for):
-    from mapush.train import build
+    from mapush.levels import build
 
     cfg = cfg_for("debug=smoke", "num_envs=32", "algo.num_steps_per_env=16", "log.episode_interval=0")
     with tempfile.TemporaryDirectory() as tmp:

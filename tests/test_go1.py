@@ -15,6 +15,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import CONF_DIR
 from mapush.lowlevel import go1_constants as go1
+from mapush.lowlevel.go1 import PROPRIO_DIM
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
 from mapush.sim.scene import build_scene, robot_prefixes
 
@@ -133,20 +134,20 @@ def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_
     assert (run_dir / "episodes.mcap").stat().st_size > 0  # the Go1 walking, for Foxglove
 
 
-def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(low_run, tmp_path):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("ship", Path(__file__).parents[1] / "tools" / "ship_go1_policy.py")
-    ship = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ship)
+def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(cli, low_run, tmp_path):
     out = tmp_path / "go1"
-    result = json.loads(ship.ship(low_run, episodes=2, seeds=[0], out=out).read_text())
-    checkpoint = torch.load(out / "model_1.pt", weights_only=False)
+    proc = cli("ship", low_run, out, "--episodes", "2", "--seeds", "0")
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads((out / "eval.json").read_text())
+    checkpoint = torch.load(out / "model_1.pt", weights_only=True)
     assert set(checkpoint) == {"actor_state_dict", "iter", "infos"}  # no critic, no optimizer
     assert Path(result["checkpoint"]).resolve() == out / "model_1.pt" and 0.0 <= result["fall_rate"] <= 1.0
     assert json.loads((out / "meta.json").read_text())["shipped_from"]["run"] == low_run.name
-    assert (out / "policy.pt").read_bytes() == (low_run / "policy.pt").read_bytes()
-    assert sorted(p.name for p in out.iterdir()) == sorted([*ship.RUN_FILES, "model_1.pt", "eval.json"])
+    files = ["config.yaml", "overrides.yaml", "meta.json", "model_1.pt", "policy.pt", "policy.onnx", "eval.json"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(files)
+    obs = torch.randn(16, PROPRIO_DIM)
+    shipped, source = torch.jit.load(out / "policy.pt"), torch.jit.load(low_run / "policy.pt")
+    assert torch.equal(shipped(obs), source(obs))  # the same actor as the run's own export
 
 
 def test_the_sim_to_sim_table_compares_a_tracker_run_with_itself_on_go1s(smoke_run, low_run, tmp_path):

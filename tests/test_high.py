@@ -95,7 +95,7 @@ def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
 
 @pytest.mark.parametrize("evaluation", [False, True])
 def test_training_plans_its_paths_on_evaluation_maps_when_asked(high_cfg, evaluation):
-    from mapush.train import make_env
+    from mapush.levels import make_env
 
     assert (make_env(high_cfg, evaluation).planner is None) != evaluation  # by default only evaluation plans
     high_cfg["level"]["path"]["plan_in_training"] = True

@@ -385,6 +385,7 @@ def _start_training(tmp_path: Path, iterations: int, checkpoints: int) -> tuple[
     """A `debug=smoke` training in a subprocess, once it has written `checkpoints` checkpoints."""
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     cmd = [*MAPUSH, "train", "debug=smoke", f"train.iterations={iterations}", f"train.run_root={tmp_path}"]
+    cmd.append("algo.keep_checkpoints=0")  # every checkpoint stays, so their count is the iterations done
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
     run_dir = Path(proc.stdout.readline().strip())
     _wait_for(lambda: len(list(run_dir.glob("model_*.pt"))) >= checkpoints)

@@ -21,8 +21,11 @@ def test_equal_stage_configs_have_one_identity_whatever_the_job_that_composes_th
     sa = compose_config(["experiment=main", "method=sa", "task=cylinder"], config_name="sweep")
     scale = compose_config(["experiment=scale", "method=ours", "task=cylinder", "agents=1"], config_name="sweep")
     assert [s.identity for s in planned_stages(sa)] == [s.identity for s in planned_stages(scale)]
-    # where a stage is written, with how many threads, and how it is logged do not make another stage
-    assert _identities() == _identities("overrides=['sim.nthread=1','log.episode_interval=0','train.progress=false']")
+    # where a stage is written, with how many threads, how it is logged and how many checkpoints it keeps do not
+    # make another stage
+    assert _identities() == _identities(
+        "overrides=['sim.nthread=1','log.episode_interval=0','train.progress=false','algo.keep_checkpoints=0']"
+    )
 
 
 def test_a_changed_reward_weight_tracker_value_or_budget_is_another_stage():

@@ -15,7 +15,7 @@ import torch
 
 from mapush.config import compose_config, to_plain
 from mapush.eval.rollout import first_episodes, summarize
-from mapush.train import build
+from mapush.levels import build
 
 
 def constant_action(cfg: dict, action: list[float], episodes: int, seeds: list[int]) -> dict:

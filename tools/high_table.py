@@ -21,7 +21,7 @@ import numpy as np
 from mapush.config import load_run_config, to_plain
 from mapush.eval.rollout import evaluate
 from mapush.report.tables import PAPER
-from mapush.rl.runner import checkpoint_iteration
+from mapush.rundir import checkpoint_iteration
 
 sys.path.insert(0, str(Path(__file__).parent))
 from high_reference import constant_action

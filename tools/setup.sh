@@ -6,6 +6,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
+# Headless OpenGL for MuJoCo's renderer (videos; README "Videos and the viewer"): Mesa's EGL, software or GPU.
+GL_PACKAGES="libegl1 libegl-mesa0 libopengl0 libgl1-mesa-dri"
+missing=$(for p in $GL_PACKAGES; do dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || echo "$p"; done)
+if [ -n "$missing" ] && command -v apt-get >/dev/null; then
+  if [ "$(id -u)" = 0 ]; then
+    { apt-get update -qq >/dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $missing >/dev/null; } ||
+      echo "setup: warning: could not install" $missing "(videos will not render)"
+  else
+    echo "setup: videos need the Debian packages" $missing "(not root: skipped; install them with sudo apt-get install)"
+  fi
+fi
 if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
 fi

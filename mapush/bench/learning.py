@@ -24,7 +24,7 @@ from omegaconf import DictConfig
 from mapush.config import load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import evaluate_points, first_reaching, last_before_marks
-from mapush.rl.runner import checkpoints
+from mapush.rundir import checkpoints
 
 
 def train_for(overrides: list[str], minutes: float, save_interval: int, run_root: Path) -> tuple[Path, float]:
@@ -32,7 +32,7 @@ def train_for(overrides: list[str], minutes: float, save_interval: int, run_root
     command = [
         sys.executable, "-m", "mapush", "train", *overrides,
         "train.iterations=100000000", f"algo.save_interval={save_interval}", f"train.run_root={run_root}",
-        "train.progress=false",
+        "train.progress=false", "algo.keep_checkpoints=0",  # every checkpoint: the time marks pick among them
     ]  # fmt: skip
     launched = time.time()
     child = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)

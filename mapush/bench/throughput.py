@@ -22,8 +22,9 @@ import torch
 from omegaconf import DictConfig
 
 from mapush.config import to_plain
+from mapush.levels import build, make_env, torch_threads
 from mapush.rl.runner import learn
-from mapush.train import attach_episode_recorder, build, make_env, torch_threads
+from mapush.train import attach_episode_recorder
 
 ROUNDS = 3
 

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from mapush.eval.rollout import evaluate_quietly
-from mapush.rl.runner import checkpoint_iteration, checkpoints, env_steps_per_iteration
+from mapush.rl.runner import env_steps_per_iteration
+from mapush.rundir import checkpoint_iteration, checkpoints
 
 
 def env_steps_at(cfg: dict, iteration: int) -> int:
@@ -26,7 +27,8 @@ def last_before_marks(values: list[float], every: float) -> list[int]:
 
 
 def curve_checkpoints(run_dir: Path, cfg: dict, every_env_steps: float) -> list[Path]:
-    """The last checkpoint at or before every multiple of `every_env_steps`, and the run's last one."""
+    """The last checkpoint at or before every multiple of `every_env_steps`, and the run's last one: of those the run
+    kept (sweeps keep all; `algo.keep_checkpoints`)."""
     found = checkpoints(run_dir)
     chosen = last_before_marks([env_steps_at(cfg, checkpoint_iteration(p)) for p in found], every_env_steps)
     if found and len(found) - 1 not in chosen:

@@ -8,6 +8,7 @@ by the timeout (paper IV-B-1). Seeds give the mean +- std.
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -15,26 +16,15 @@ import numpy as np
 import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
-from mapush.errors import BadInput
+from mapush.levels import build, env_class
 from mapush.logging.episodes import EpisodeRecorder, LiveView
+from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.rewards.manager import RewardManager
-from mapush.rl.runner import checkpoints, load_checkpoint, obs_width
+from mapush.rl.runner import load_checkpoint, obs_width
+from mapush.rundir import resolve_checkpoint
+from mapush.viz.video import eval_video_path, eval_video_recorder
 
 EPISODES = "episodes.mcap"
-
-
-def resolve_checkpoint(target: Path) -> tuple[Path, Path]:
-    """(run dir, checkpoint) from a run dir (its latest checkpoint) or a checkpoint file."""
-    target = Path(target)
-    if target.is_file():
-        return target.parent, target
-    if not target.exists():
-        raise BadInput(f"{str(target)!r} does not exist; valid: a run dir or a model_<iteration>.pt in one")
-    found = checkpoints(target)
-    load_run_config(target)
-    if not found:
-        raise BadInput(f"run dir {str(target)!r} has no checkpoint; valid: a run dir with model_*.pt")
-    return target, found[-1]
 
 
 def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorders: tuple = ()) -> dict:
@@ -42,8 +32,6 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
 
     `recorders` (EpisodeRecorder, LiveView) watch the first envs' episodes.
     """
-    from mapush.train import build  # late: train imports this module's neighbours
-
     cfg = {**cfg, "seed": seed, "num_envs": episodes}
     env, runner = build(cfg, None, 0, evaluation=True)
     watched = list(range(max(min(int(cfg["log"]["eval_episodes"]), episodes), 1)))  # the live view follows env 0
@@ -102,31 +90,54 @@ def evaluate(
     overrides: list[str] = (),
     live: bool = False,
     name: str = "",
+    video: bool = False,
+    out_dir: Path | None = None,
 ) -> Path:
     """Evaluate a run dir or checkpoint over seeds; writes and returns `eval.json` in the run dir.
 
     `overrides` (e.g. `task.num_agents=3`, `lowlevel=tracker`) change the run's config for this evaluation. The
     first `log.eval_episodes` episodes of each seed go to `episodes.mcap`; `live` also streams env 0 to Foxglove
     at real time on 127.0.0.1:`log.live_port`. A `name` keeps several evaluations of one run apart:
-    `eval_<name>.json` and `episodes_<name>.mcap`.
+    `eval_<name>.json` and `episodes_<name>.mcap`. `video` renders env 0's first episode(s) to `eval_video.mp4`
+    (`eval_video_<name>.mp4`; `mapush.viz.video`). Overrides of what is evaluated (all but `log.*`, `eval.*`)
+    without a name get one from the overrides, so that they never overwrite the run's own `eval.json`. Files go
+    to `out_dir`, by default the run dir (for a policy shipped in the package: `runs/shipped/...`, so that
+    nothing is written into the installed package).
     """
-    from mapush.train import exit_on_sigterm
-
     run_dir, checkpoint = resolve_checkpoint(target)
+    name = name or overrides_name([o for o in overrides if not o.lstrip("+~").startswith(("log.", "eval."))])
+    out_dir = Path(out_dir) if out_dir is not None else output_dir(run_dir)
     cfg = to_plain(apply_overrides(load_run_config(run_dir), overrides))
+    out_dir.mkdir(parents=True, exist_ok=True)
     episodes = episodes or cfg["eval"]["episodes"]
     seeds = seeds if seeds else list(cfg["eval"]["seeds"])
     exit_on_sigterm()
     suffix = f"_{name}" if name else ""
-    recorders = _eval_recorders(cfg, run_dir / f"{Path(EPISODES).stem}{suffix}.mcap", live)
+    recorders = [eval_video_recorder(cfg, eval_video_path(out_dir, name))] if video else []  # checks the renderer
+    recorders += _eval_recorders(cfg, out_dir / f"{Path(EPISODES).stem}{suffix}.mcap", live)
     try:
         per_seed = [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
     finally:
         for recorder in recorders:
             recorder.close()
-    out = run_dir / f"eval{suffix}.json"
+    out = out_dir / f"eval{suffix}.json"
     out.write_text(json.dumps(summarize(cfg, str(checkpoint), episodes, seeds, per_seed), indent=2) + "\n")
     return out
+
+
+def overrides_name(overrides: list[str]) -> str:
+    """A file-name tag for an evaluation's overrides (`task.num_agents=3` -> `task.num_agents-3`); '' for none."""
+    return re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(overrides)).strip("-")
+
+
+def output_dir(run_dir: Path) -> Path:
+    """Where an evaluation of `run_dir` writes: the run dir, or for a policy shipped inside the installed package
+    `runs/shipped/<its path in the package>` under the working dir."""
+    package = Path(__file__).resolve().parents[1]
+    resolved = Path(run_dir).resolve()
+    if resolved.is_relative_to(package):
+        return Path("runs") / "shipped" / resolved.relative_to(package)
+    return Path(run_dir)
 
 
 def evaluate_quietly(cfg: dict, checkpoint: Path, episodes: int, seeds: list[int]) -> dict:
@@ -161,8 +172,6 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
 
 def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
     """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
-    from mapush.train import env_class
-
     layout, terms = env_class(cfg).scene_layout(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
     exceptions = env_class(cfg).EXCEPTIONS
     recorders: list = []

@@ -19,11 +19,15 @@ from typing import NamedTuple
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from mapush import train as training
 from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
 from mapush.errors import BadInput
+from mapush.eval.curves import learning_curve
+from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
 from mapush.experiments.stages import STAGE_REF
-from mapush.rl.runner import POLICY_FILE, checkpoints, env_steps_per_iteration
+from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
+from mapush.rundir import checkpoints, is_complete
 
 RESULT = "result.json"
 
@@ -107,8 +111,6 @@ def iterations_for(stage_cfg: DictConfig | dict, env_steps: float) -> int:
 
 def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     """Train, evaluate and record one job; returns the result (also written to `job_dir/result.json`)."""
-    from mapush.eval.rollout import evaluate
-
     job_dir = Path(job_dir)
     done = job_dir / RESULT
     if done.is_file():
@@ -155,8 +157,6 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
 def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
     """The budget's `curve`: the evaluated stage's checkpoints evaluated as the named evaluation, with the
     experiment's budget rule; None when the budget asks for none."""
-    from mapush.eval.curves import learning_curve
-
     budget = budget_of(cfg)
     curve = budget.get("curve")
     if not curve:
@@ -171,12 +171,10 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
 def train_stage(stage_dir: Path, overrides: list[str], iterations: int) -> Path:
     """The finished run of one stage in its store dir: reused, resumed from its last checkpoint, or trained from
     scratch for `iterations`."""
-    from mapush import train as training
-
     for run_dir in sorted(p.parent for p in stage_dir.glob("**/config.yaml")):
         if (run_dir / POLICY_FILE).is_file():
             return run_dir
-        if training.is_complete(run_dir):
+        if is_complete(run_dir):
             return training.export_finished(run_dir)
         if checkpoints(run_dir):
             return training.resume(run_dir, None)
@@ -186,6 +184,7 @@ def train_stage(stage_dir: Path, overrides: list[str], iterations: int) -> Path:
         "train.iterations": iterations,
         "train.run_root": str(stage_dir),
         "train.progress": False,
+        "algo.keep_checkpoints": 0,  # every checkpoint: the learning curve evaluates the last before each mark
     }
     for key, value in budget.items():
         OmegaConf.update(cfg, key, value)

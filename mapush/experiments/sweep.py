@@ -10,20 +10,23 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import sys
 import traceback
 from pathlib import Path
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.core.override_parser.types import Glob
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import CONF_DIR, compose_config, group_options, to_plain
 from mapush.errors import BadInput
+from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
 from mapush.experiments.pipeline import RESULT, budget_of, planned_stages, run_job, stage_plan
 from mapush.experiments.stages import STAGE_REF
+from mapush.levels import env_class
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
 SWEEP_KEYS = (*SWEEP_GROUPS, "seed", "agents", "budget", "overrides", "sweep_root", "sweep_name", "job_threads")
@@ -73,8 +76,7 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
             raise BadInput(f"give stage overrides either as overrides=[...] or bare, not both: {' '.join(stage)}")
         overrides.append("overrides=[" + ",".join(repr(o) for o in stage) + "]")
         if not any(o.startswith("sweep_name=") for o in overrides):  # keep them apart from the plain sweep
-            tag = re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(stage)).strip("-")
-            overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{tag}")
+            overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{overrides_name(stage)}")
     given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
     given_axes = _split_axes(overrides)
     for group in SWEEP_GROUPS:
@@ -101,11 +103,24 @@ def _is_sweep_key(override: str) -> bool:
 
 
 def _split_axes(overrides: list[str]) -> dict[str, list[str]]:
-    """`key=a,b` -> {key: [a, b]}; a bracketed list value (`overrides=[...]`) is one value."""
+    """Each override's values, by Hydra's own sweep grammar: `seed=0,1`, `agents=range(1,5)`,
+    `task=choice(cuboid,tblock)`, `task=glob(c*)` (a group's files); a list (`overrides=[...]`) is one value."""
+    parser = OverridesParser.create()
     axes = {}
-    for override in overrides:
-        key, _, value = override.partition("=")
-        axes[key] = value.split(",") if "," in value and not value.startswith("[") else [value]
+    for text in overrides:
+        try:
+            override = parser.parse_override(text)
+        except Exception as err:  # Hydra's grammar errors: the user's typing
+            raise BadInput(f"bad override {text!r} ({str(err).strip().splitlines()[0]}); valid: key=value") from None
+        key, value = override.get_key_element(), override.value()
+        if isinstance(value, Glob):
+            if override.key_or_group not in SWEEP_GROUPS:
+                raise BadInput(f"glob() in {text!r} picks files of a group; valid: {', '.join(SWEEP_GROUPS)}")
+            axes[key] = value.filter(group_options(override.key_or_group))
+        elif override.is_sweep_override():
+            axes[key] = list(override.sweep_string_iterator())
+        else:
+            axes[key] = [override.get_value_element_as_str()]
     return axes
 
 
@@ -131,8 +146,6 @@ def job_combos(overrides: list[str], seeds: bool = True) -> list[list[str]]:
 
 def _check_jobs(overrides: list[str]) -> None:
     """Compose every job's stages (without training) so that a bad method, task or agent count fails now."""
-    from mapush.train import env_class
-
     checked: set[tuple[str, ...]] = set()
     for combo in job_combos(overrides, seeds=False):  # the seed changes no stage's validity
         for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):

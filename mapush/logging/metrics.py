@@ -107,6 +107,10 @@ class McapLogWriter(LogWriter):
         if tag == "Perf/total_fps":
             self.add_scalar("Perf/env_steps_per_s", value / self.num_agents, global_step)
 
+    def latest(self, tag: str) -> float | None:
+        """The last value recorded for `tag` (this iteration's, if it was logged), or None."""
+        return self._latest.get(tag)
+
     def store_config(self, env_cfg: dict | object, train_cfg: dict) -> None:
         """Attach the composed config (env side) and the rsl-rl runner dict."""
         now = time.time_ns()

@@ -38,19 +38,30 @@ from mapush.planning.geometry import PARKED
 WORLD = "world"
 OBJECT = "object"
 
-WALL = Color(r=0.55, g=0.55, b=0.6, a=1.0)
-OBJECT_COLOR = Color(r=0.95, g=0.55, b=0.15, a=1.0)
-ROBOT_COLORS = (
-    Color(r=0.2, g=0.45, b=0.95, a=1.0),
-    Color(r=0.85, g=0.25, b=0.3, a=1.0),
-    Color(r=0.3, g=0.7, b=0.35, a=1.0),
-    Color(r=0.6, g=0.35, b=0.85, a=1.0),
-)
-HEADING = Color(r=1.0, g=1.0, b=1.0, a=1.0)
-SUBGOAL = Color(r=0.1, g=0.8, b=0.4, a=0.35)
-TARGET = Color(r=0.95, g=0.85, b=0.1, a=0.45)
-OBSTACLE = Color(r=0.35, g=0.35, b=0.4, a=1.0)
-PATH = Color(r=0.1, g=0.6, b=0.95, a=1.0)
+RGBA = {  # one palette for the episode files and the videos (mapush.viz)
+    "wall": (0.55, 0.55, 0.6, 1.0),
+    "object": (0.95, 0.55, 0.15, 1.0),
+    "robots": ((0.2, 0.45, 0.95, 1.0), (0.85, 0.25, 0.3, 1.0), (0.3, 0.7, 0.35, 1.0), (0.6, 0.35, 0.85, 1.0)),
+    "heading": (1.0, 1.0, 1.0, 1.0),
+    "subgoal": (0.1, 0.8, 0.4, 0.35),
+    "target": (0.95, 0.85, 0.1, 0.45),
+    "obstacle": (0.35, 0.35, 0.4, 1.0),
+    "path": (0.1, 0.6, 0.95, 1.0),
+}
+
+
+def _color(rgba: tuple[float, float, float, float]) -> Color:
+    return Color(r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3])
+
+
+WALL = _color(RGBA["wall"])
+OBJECT_COLOR = _color(RGBA["object"])
+ROBOT_COLORS = tuple(_color(rgba) for rgba in RGBA["robots"])
+HEADING = _color(RGBA["heading"])
+SUBGOAL = _color(RGBA["subgoal"])
+TARGET = _color(RGBA["target"])
+OBSTACLE = _color(RGBA["obstacle"])
+PATH = _color(RGBA["path"])
 MARKER_HEIGHT = 0.02  # m; goal discs lie flat on the floor
 GOAL_RADIUS = 0.15  # m; the discs of the robots' own navigation goals (H+L)
 

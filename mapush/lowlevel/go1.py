@@ -6,7 +6,7 @@ joint targets for the PD servos, which run at every 5 ms physics step. Robots ca
 levels count as an exception.
 
 The policy is a TorchScript `policy.pt` exported by `mapush train level=low`: `lowlevel.policy=PATH`, or null for
-the one shipped in the package (`mapush/lowlevel/pretrained/go1/`, a slim run dir: see `tools/ship_go1_policy.py`).
+the one shipped in the package (`mapush/lowlevel/pretrained/go1/`, a slim run dir written by `mapush ship`).
 """
 
 from __future__ import annotations
@@ -20,8 +20,9 @@ import torch
 from mapush.errors import BadInput
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec
+from mapush.rundir import SHIPPED_GO1
 
-PRETRAINED_RUN = Path(__file__).with_name("pretrained") / "go1"
+PRETRAINED_RUN = SHIPPED_GO1
 """The shipped locomotion policy's run dir: its config, actor checkpoint, TorchScript policy and eval."""
 PRETRAINED = PRETRAINED_RUN / "policy.pt"
 """The shipped locomotion policy (`lowlevel.policy: null`)."""

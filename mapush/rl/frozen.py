@@ -1,19 +1,18 @@
-"""A frozen mid-level policy for the high level: loaded from a mid run dir or checkpoint, checked to fit."""
+"""A frozen mid-level policy for the high level: the actor of a mid run's checkpoint, checked to fit its task."""
 
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
 import torch
 
-from mapush.config import load_run_config, to_plain
 from mapush.envs.observations import local_dim
 from mapush.errors import BadInput
+from mapush.rl.policy import load_policy
 
 
 class FrozenMid:
-    """The mid level's deterministic actor as TorchScript (normalizer included), turned into robot commands.
+    """The mid level's deterministic actor (normalizer included), turned into robot commands.
 
     Args:
         policy: local observations (n, d) -> actions (n, 3).
@@ -37,29 +36,18 @@ def load_mid_policy(target: str | Path | None, task_cfg: dict) -> FrozenMid:
 
     Raises BadInput when `target` is missing, is not a mid-level run, or was trained on another task or agent count.
     """
-    from mapush.eval.rollout import resolve_checkpoint  # late: rollout builds envs through mapush.train
-    from mapush.rl.runner import load_checkpoint
-    from mapush.train import build
-
     if target in (None, "", "None"):
         raise BadInput("level=high needs the frozen mid level: mid=RUN_DIR (a mid-level run dir or model_<it>.pt)")
-    run_dir, checkpoint = resolve_checkpoint(Path(target))
-    mid_cfg = to_plain(load_run_config(run_dir))
+    policy = load_policy(target)
+    mid_cfg = policy.cfg
     if mid_cfg["level"]["name"] != "mid":
         raise BadInput(f"mid={str(target)!r} is a {mid_cfg['level']['name']}-level run; valid: a mid-level run dir")
     trained = (mid_cfg["task"]["name"], mid_cfg["task"]["num_agents"])
     wanted = (task_cfg["name"], task_cfg["num_agents"])
-    if trained != wanted:
+    if trained != wanted or policy.obs_dim != local_dim(wanted[1]):
         raise BadInput(
             f"mid={str(target)!r} was trained on task {trained[0]} with {trained[1]} agents, not {wanted[0]} with "
             f"{wanted[1]}; valid: a mid run of task={wanted[0]} task.num_agents={wanted[1]}"
         )
-    mid_cfg["num_envs"] = 1
-    _, runner = build(mid_cfg, None, 0)
-    load_checkpoint(runner, checkpoint, local_dim(wanted[1]), f"task {wanted[0]} with {wanted[1]} agents")
-    with tempfile.TemporaryDirectory() as tmp:
-        runner.export_policy_to_jit(tmp, "mid.pt")
-        policy = torch.jit.load(str(Path(tmp) / "mid.pt"))
-    policy.eval()
     scale = torch.tensor(mid_cfg["level"]["action_scale"], dtype=torch.float32)
-    return FrozenMid(policy, scale, checkpoint)
+    return FrozenMid(policy.actor, scale, policy.checkpoint)

@@ -5,8 +5,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import os
-import pickle
-import re
 from pathlib import Path
 
 import numpy as np
@@ -15,15 +13,20 @@ from rsl_rl.runners import OnPolicyRunner
 
 from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
-from mapush.logging.metrics import IterationLogger
+from mapush.logging.metrics import IterationLogger, McapLogWriter
+from mapush.rl.export import export_onnx
+from mapush.rl.policy import actor_shape, read_checkpoint
+from mapush.rl.retention import SCORE_KEY, SUCCESS_TAG, Retention
 
-CHECKPOINT = re.compile(r"model_(\d+)\.pt$")
 POLICY_FILE = "policy.pt"
 """The exported TorchScript policy: local observation (n, d) -> deterministic action (n, 3)."""
+ONNX_FILE = "policy.onnx"
+"""The same policy as ONNX: input `obs` (batch, d), output `actions` (batch, 3); one file, normalizer included."""
 
 
 class MapushRunner(OnPolicyRunner):
-    """OnPolicyRunner whose checkpoints are written atomically and whose logger flushes every iteration.
+    """OnPolicyRunner whose checkpoints are written atomically and pruned (`algo.keep_checkpoints`, see
+    `mapush.rl.retention`) and whose logger flushes every iteration.
 
     Torch runs the rollout on `threads[0]` threads and the PPO update on `threads[1]`: between two policy calls
     of the rollout MuJoCo steps the batch on every core, and idle torch workers spinning beside it slowed physics
@@ -47,16 +50,22 @@ class MapushRunner(OnPolicyRunner):
                 torch.set_num_threads(rollout_threads)
 
         self.alg.update = update_with_threads
+        # runs made before `algo.keep_checkpoints` existed keep every checkpoint, as they did
+        self.retention = Retention(int(train_cfg.get("keep_checkpoints", 0)))
 
     def save(self, path: str, infos: dict | None = None) -> None:
-        """Write the checkpoint to a temp file, then rename it into place: a cut never leaves half a file."""
+        """Write the checkpoint to a temp file, then rename it into place: a cut never leaves half a file. Only
+        then drop the checkpoints that retention does not keep."""
+        writer = self.logger.writer
+        score = writer.latest(SUCCESS_TAG) if isinstance(writer, McapLogWriter) else None
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
-        saved["infos"] = infos
+        saved["infos"] = {**(infos or {}), SCORE_KEY: score}
         tmp = f"{path}.tmp"
         torch.save(saved, tmp)
         os.replace(tmp, path)
         self.logger.save_model(path, self.current_learning_iteration)
+        self.retention.saved(Path(path), score)
 
 
 def train_cfg_for(cfg: dict, num_agents: int, total_iterations: int) -> dict:
@@ -84,23 +93,6 @@ def seed_everything(seed: int) -> None:
     np.random.seed(seed)
 
 
-def checkpoints(run_dir: Path) -> list[Path]:
-    """The run's checkpoints, oldest iteration first."""
-    found = [p for p in Path(run_dir).glob("model_*.pt") if CHECKPOINT.search(p.name)]
-    return sorted(found, key=checkpoint_iteration)
-
-
-def checkpoint_iteration(path: Path) -> int:
-    """The iteration in a checkpoint's file name (`model_<it>.pt`)."""
-    return int(CHECKPOINT.search(Path(path).name).group(1))
-
-
-def actor_input_dim(checkpoint: dict) -> int:
-    """Width of the observation the checkpoint's actor was trained on."""
-    weights = [v for k, v in checkpoint["actor_state_dict"].items() if k.endswith("weight") and v.dim() == 2]
-    return int(weights[0].shape[1])
-
-
 def obs_width(runner: OnPolicyRunner) -> int:
     """Width of the actor's observation in the runner's env."""
     return int(runner.env.get_observations()["policy"].shape[-1])
@@ -113,16 +105,8 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
     """
     if not Path(path).is_file():
         raise BadInput(f"checkpoint {str(path)!r} does not exist; valid: a model_<iteration>.pt of a run dir")
-    try:  # weights only: a checkpoint holding any other object could run code when unpickled, so it is refused
-        data = torch.load(path, weights_only=True, map_location="cpu")
-        trained_dim = actor_input_dim(data)
-    except pickle.UnpicklingError:
-        raise BadInput(
-            f"checkpoint {str(path)!r} holds objects other than weights and was not loaded (loading it could run "
-            "code); valid: a checkpoint of tensors, numbers and strings, as mapush writes"
-        ) from None
-    except Exception as err:  # a truncated or foreign file, or weights but not an actor's
-        raise BadInput(f"checkpoint {str(path)!r} is not an rsl-rl checkpoint ({type(err).__name__})") from None
+    data = read_checkpoint(path)  # weights only: anything else could run code when unpickled
+    trained_dim, _ = actor_shape(data)
     if trained_dim != obs_dim:
         level = runner.env.cfg["level"]["name"]
         hint = f" (task.num_agents={agents_for_local_dim(trained_dim)})" if level == "mid" else ""
@@ -151,6 +135,9 @@ def learn(runner: MapushRunner, iterations: int, log_path: Path, spread_episodes
 
 
 def export_policy(runner: OnPolicyRunner, run_dir: Path) -> Path:
-    """Export the deterministic actor (with its observation normalizer) to TorchScript."""
+    """Export the deterministic actor (with its observation normalizer) to ONNX, then to TorchScript: `policy.pt`
+    marks a finished run, so it comes last."""
+    actor = runner.alg.get_policy().as_onnx(verbose=False)
+    export_onnx(actor, actor.input_size, Path(run_dir) / ONNX_FILE)
     runner.export_policy_to_jit(str(run_dir), POLICY_FILE)
     return Path(run_dir) / POLICY_FILE

@@ -1,0 +1,84 @@
+"""Commands of the paper's experiments: sweep, ablate, scale (Hydra multiruns) and tables."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from mapush.cli.app import PASS_THROUGH, app, int_list
+from mapush.errors import BadInput
+
+DRY_RUN = typer.Option(False, "--dry-run", help="Print the stages it would train and reuse; train nothing.")
+
+
+@app.command(context_settings=PASS_THROUGH)
+def sweep(ctx: typer.Context, dry_run: bool = DRY_RUN) -> None:
+    """Run a Hydra multirun of sweep jobs: `method=ours,sa task=cuboid,tblock seed=0,1 launcher=local|slurm|ray`.
+
+    Axes not given come from the experiment (`experiment=main|ocb_ablation|scale`, `budget=quick|paper`). Each job
+    trains its method's stages and evaluates them into <sweep dir>/<job>/result.json; finished jobs are skipped
+    and cut ones resumed when the same command runs again. A stage that any sweep under the same root has
+    trained with the same config is reused, not trained again.
+    """
+    _sweep(list(ctx.args), dry_run)
+
+
+@app.command(context_settings=PASS_THROUGH)
+def ablate(
+    ctx: typer.Context,
+    what: str = typer.Argument(..., help="The ablation: ocb (the paper's OCB ablation)."),
+    dry_run: bool = DRY_RUN,
+) -> None:
+    """The paper's OCB ablation: with and without OCB, timeouts 20 s and 40 s, several seeds (a sweep)."""
+    if what != "ocb":
+        raise BadInput(f"unknown ablation {what!r}; valid: ocb")
+    _sweep(["experiment=ocb_ablation", *ctx.args], dry_run)
+
+
+@app.command(context_settings=PASS_THROUGH)
+def scale(
+    ctx: typer.Context,
+    agents: str = typer.Option("1,2,3,4", "--agents", help="Comma-separated robot counts."),
+    dry_run: bool = DRY_RUN,
+) -> None:
+    """The cylinder scalability study: the whole hierarchy with each robot count, several seeds (a sweep)."""
+    counts = int_list(agents, "--agents")
+    if not counts or min(counts) < 1:
+        raise BadInput(f"--agents {agents!r} must be robot counts >= 1, e.g. 1,2,3,4")
+    _sweep(["experiment=scale", f"agents={','.join(map(str, counts))}", *ctx.args], dry_run)
+
+
+def _sweep(overrides: list[str], dry_run: bool = False) -> None:
+    from mapush.experiments.sweep import dry_run as print_plan
+    from mapush.experiments.sweep import report, run_sweep
+
+    if dry_run:
+        print_plan(overrides)
+        return
+    sweep_dir, finished, failed = run_sweep(overrides)
+    code = report(sweep_dir, finished, failed)
+    if code:
+        raise typer.Exit(code)
+
+
+@app.command()
+def tables(
+    runs: Path = typer.Option(Path("runs"), "--runs", help="Where to look for sweep jobs (result.json files)."),
+    out: Path = typer.Option(Path("results"), "--out", help="Where to write the tables."),
+    only: list[str] = typer.Option([], "--table", help="Write only these tables (main, ocb_ablation, scale)."),
+) -> None:
+    """Build the paper's tables (Markdown, LaTeX, CSV, a JSON sidecar per table), learning curves and the
+    scalability plot."""
+    from mapush.report.tables import BUILDERS, write_tables
+
+    if not runs.is_dir():
+        raise BadInput(f"--runs {str(runs)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
+    for name in only:
+        if name not in BUILDERS:
+            raise BadInput(f"--table {name!r} is not a table; valid: {', '.join(BUILDERS)}")
+    for table in write_tables(runs, out, only or list(BUILDERS)):
+        filled = sum(bool(c.values) for _, cells in table.rows for c in cells)
+        total = sum(len(cells) for _, cells in table.rows)
+        missing = f", missing cells listed in {table.name}.md" if table.missing else ""
+        print(f"{out / table.name}.{{md,tex,csv,json}}: {filled}/{total} cells filled{missing}")

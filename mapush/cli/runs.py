@@ -1,0 +1,129 @@
+"""Commands on one run: train, eval, play, ship."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import typer
+
+from mapush.cli.app import PASS_THROUGH, app, int_list
+from mapush.errors import BadInput
+
+CFG_PARTS = ("job", "hydra", "all")
+"""What `--cfg` prints, as Hydra apps do: the composed config, Hydra's own node, or both."""
+
+
+@app.command(context_settings=PASS_THROUGH)
+def train(
+    ctx: typer.Context,
+    resume: Path | None = typer.Option(None, "--resume", help="Continue this cut run from its last checkpoint."),
+    show: str | None = typer.Option(None, "--cfg", help="Print the composed config (job, hydra, all); no training."),
+) -> None:
+    """Train a policy (default: mid level, cuboid, 2 robots, tracker). Prints the run dir."""
+    from omegaconf import OmegaConf
+
+    from mapush.config import compose_config, load_run_config
+    from mapush.viz.preflight import prepare_training_video
+
+    overrides = list(ctx.args)
+    if show is not None:
+        if show not in CFG_PARTS:
+            raise BadInput(f"--cfg {show!r} is not a part; valid: {', '.join(CFG_PARTS)}")
+        cfg = compose_config(overrides, hydra=show != "job")
+        print(OmegaConf.to_yaml({"hydra": cfg.hydra} if show == "hydra" else cfg), end="")
+        return
+    if resume is not None:
+        iterations = None
+        for override in overrides:
+            key, _, value = override.partition("=")
+            if key != "train.iterations" or not value.isdigit():
+                raise BadInput(f"--resume takes only train.iterations=N as an override, got {override!r}")
+            iterations = int(value)
+        prepare_training_video(load_run_config(resume))  # before MuJoCo is imported: it picks the GL backend
+        from mapush import train as training
+
+        training.resume(resume, iterations)
+        return
+    cfg = compose_config(overrides)
+    prepare_training_video(cfg)
+    from mapush import train as training
+
+    training.train(cfg, overrides, command=" ".join(["mapush", *sys.argv[1:]]))
+
+
+@app.command(name="eval", context_settings=PASS_THROUGH)
+def evaluate(
+    ctx: typer.Context,
+    target: Path = typer.Argument(..., help="A run dir (its latest checkpoint) or a model_<it>.pt file."),
+    episodes: int | None = typer.Option(None, "--episodes", help="Trials per seed (default: eval.episodes)."),
+    seeds: str | None = typer.Option(None, "--seeds", help="Comma-separated seeds (default: eval.seeds)."),
+    live: bool = typer.Option(False, "--live", help="Also stream env 0 to Foxglove (ws://127.0.0.1:log.live_port)."),
+    name: str = typer.Option(
+        "", "--name", help="Keep this evaluation apart (e.g. with overrides): eval_NAME.json, episodes_NAME.mcap."
+    ),
+    video: bool = typer.Option(
+        False, "--video", help="Also render env 0's first episode(s) headless to eval_video.mp4 (log.video.*)."
+    ),
+) -> None:
+    """Evaluate deterministically; writes eval.json (success rate, completion time) and episodes.mcap."""
+    import json
+
+    if video:  # before MuJoCo is imported: it picks the OpenGL backend
+        from mapush.viz.preflight import require_offscreen_gl
+
+        require_offscreen_gl()
+    from mapush.eval.rollout import evaluate as run_eval
+
+    seed_list = int_list(seeds, "--seeds") if seeds else None
+    if episodes is not None and episodes < 1:
+        raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
+    if name and not name.replace("-", "").replace("_", "").isalnum():
+        raise BadInput(f"--name {name!r} is not a plain name; valid: letters, digits, '-' and '_'")
+    out = run_eval(target, episodes, seed_list, list(ctx.args), live=live, name=name, video=video)
+    result = json.loads(out.read_text())
+    runs = f"{result['episodes']} episodes x seeds {result['seeds']}"
+    if "velocity_error" in result:  # the low level
+        print(
+            f"velocity error {result['velocity_error']:.3f} m/s | fall rate {100 * result['fall_rate']:.1f} % | {runs}"
+        )
+    else:
+        print(
+            f"success rate {100 * result['success_rate']:.1f} +- {100 * result['success_rate_std']:.1f} % | "
+            f"completion time {result['completion_time']:.3f} ({result['completion_time_s']:.2f} s) | {runs}"
+        )
+    if video:
+        from mapush.viz.video import eval_video_of
+
+        print(eval_video_of(out))
+    print(out)
+
+
+@app.command(context_settings=PASS_THROUGH)
+def play(
+    ctx: typer.Context,
+    target: Path = typer.Argument(..., help="A run dir (its latest checkpoint) or a model_<it>.pt file."),
+    seed: int = typer.Option(0, "--seed", help="The episodes' seed."),
+) -> None:
+    """Watch the policy push in MuJoCo's native viewer (needs a display), episode after episode, in real time."""
+    from mapush.viz.preflight import require_display
+
+    require_display()
+    from mapush.eval.play import play as run_play
+
+    run_play(target, list(ctx.args), seed)
+
+
+@app.command()
+def ship(
+    run: Path = typer.Argument(..., help="A finished run dir (a high level ships with its frozen mid level)."),
+    out: Path = typer.Argument(..., help="The slim run dir to write (replaced), e.g. mapush/policies/cuboid."),
+    episodes: int = typer.Option(50, "--episodes", help="Trials per seed of the shipped files' evaluation."),
+    seeds: str = typer.Option("0,1", "--seeds", help="Comma-separated seeds of that evaluation."),
+) -> None:
+    """Ship a finished run as a slim run dir (actor, config, policy.pt, policy.onnx) and evaluate the shipped files."""
+    from mapush.ship import ship as write_shipped
+
+    if episodes < 1:
+        raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
+    print(write_shipped(run, out, episodes, int_list(seeds, "--seeds")))

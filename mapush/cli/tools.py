@@ -1,0 +1,143 @@
+"""Measuring and inspecting commands: bench, plan, calibrate, plot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from mapush.cli.app import PASS_THROUGH, app
+from mapush.errors import BadInput
+
+
+@app.command(context_settings=PASS_THROUGH)
+def bench(
+    ctx: typer.Context,
+    json_path: Path | None = typer.Option(None, "--json", help="Also write the figures to this JSON file."),
+    learn: bool = typer.Option(
+        False,
+        "--learn",
+        help="Time to success: train for --minutes, evaluate checkpoints, report the minutes to "
+        "bench.learn.thresholds (JSON, and a PNG beside --json).",
+    ),
+    minutes: float = typer.Option(10.0, "--minutes", help="--learn: wall time of training."),
+) -> None:
+    """Measure throughput and where an iteration's time goes (architecture section 7), or with --learn the
+    minutes of `mapush train` to a given evaluated success."""
+    import json
+
+    from mapush import bench as benchmarks
+    from mapush.config import compose_config
+
+    cfg = compose_config(list(ctx.args))
+    if learn:
+        if minutes <= 0:
+            raise BadInput(f"--minutes {minutes} must be positive; valid: a number of minutes > 0")
+        result = benchmarks.run_learning_bench(cfg, list(ctx.args), minutes, Path(cfg.bench.learn.run_root))
+    else:
+        result = benchmarks.run_bench(cfg)
+    text = json.dumps(result, indent=2)
+    print(text)
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(text + "\n")
+        if learn:
+            benchmarks.learning.plot_learning(result, json_path.with_suffix(".png"))
+
+
+@app.command(context_settings=PASS_THROUGH)
+def plan(
+    ctx: typer.Context,
+    task: str = typer.Option("cuboid", "--task", help="The object (conf/task/)."),
+    seed: int = typer.Option(0, "--seed", help="The map: the one evaluation draws for this seed."),
+    json_path: Path | None = typer.Option(None, "--json", help="Write start, goal, path, obstacles, time, validity."),
+    png: Path | None = typer.Option(None, "--png", help="Draw the map and the path."),
+    maps: int = typer.Option(1, "--maps", help="Plan this many maps (seeds SEED..) and print timing figures."),
+) -> None:
+    """Plan the object's path through a random long-horizon map with OMPL (level=high's planner settings)."""
+    import json
+
+    from mapush import plan as planning
+    from mapush.config import compose_config, to_plain
+
+    if maps < 1:
+        raise BadInput(f"--maps {maps} must be 1 or more")
+    cfg = to_plain(compose_config(["level=high", f"task={task}", f"seed={seed}", *ctx.args]))
+    planner = planning.make_planner(cfg)
+    try:
+        record, _ = planning.plan_map(cfg, seed, planner)
+        state = "valid" if record["valid"] else ("INVALID" if record["solved"] else "no path found (planner failure)")
+        print(
+            f"{task} seed {seed}: {record['planner']} path {record['length_m']:.2f} m, "
+            f"{1000 * record['planning_time_s']:.1f} ms, {len(record['obstacles'])} obstacles, {state}"
+        )
+        if maps > 1:
+            t = planning.timing(cfg, seed, maps, planner)
+            print(
+                f"{t['maps']} maps: median {1000 * t['median_s']:.1f} ms, max {1000 * t['max_s']:.1f} ms, "
+                f"solved {t['solved']}, valid {t['valid']}"
+            )
+            record["timing"] = t
+    finally:
+        planner.close()
+    if json_path:
+        json_path.write_text(json.dumps(record, indent=2) + "\n")
+        print(json_path)
+    if png:
+        print(planning.draw(cfg, record, png))
+
+
+@app.command(context_settings=PASS_THROUGH)
+def calibrate(
+    ctx: typer.Context,
+    tasks: str = typer.Option("cuboid,tblock,cylinder", "--tasks", help="Objects to push, comma-separated."),
+    steps: str = typer.Option("0.25,0.5", "--steps", help="Step command sizes (m/s, rad/s), comma-separated."),
+    settle: float = typer.Option(1.0, "--settle", help="Seconds of standing before each step."),
+    duration: float = typer.Option(3.0, "--duration", help="Seconds each step command is held."),
+    out: Path | None = typer.Option(None, "--out", help="Output dir (default runs/calibrate/<time>)."),
+    config: Path | None = typer.Option(None, "--config", help="The tracker config to update (default conf's)."),
+) -> None:
+    """Fit the tracker's lag and force limit to the legged Go1's step responses, free and pushing each object.
+
+    Overrides choose the robot measured: `lowlevel.policy=RUN/policy.pt` (default: lowlevel=go1, shipped policy).
+    """
+    import datetime
+
+    from mapush.calibrate import calibrate as run_calibration
+    from mapush.calibrate import default_config_path
+    from mapush.config import group_options
+
+    task_list = [t for t in tasks.split(",") if t]
+    unknown = sorted(set(task_list) - set(group_options("task")))
+    if unknown or not task_list:
+        raise BadInput(f"--tasks {tasks!r}: unknown {unknown}; valid: {', '.join(group_options('task'))}")
+    step_sizes = [float(x) for x in steps.split(",") if x]
+    if not step_sizes or min(step_sizes) <= 0:
+        raise BadInput(f"--steps {steps!r} must be positive sizes, e.g. 0.25,0.5")
+    if settle < 0 or duration <= 0:
+        raise BadInput(f"--settle {settle} / --duration {duration}: valid: settle >= 0, duration > 0 seconds")
+    overrides = list(ctx.args)
+    reference = overrides if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
+    stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    out_dir = out or Path("runs") / "calibrate" / stamp
+    config_path = config or default_config_path()
+    summary = run_calibration(reference, task_list, step_sizes, settle, duration, out_dir, config_path)
+    fitted = ", ".join(f"{k} {v:.4g}" for k, v in summary["fitted"].items())
+    print(f"fitted {fitted} -> {config_path}")
+    print(out_dir)
+
+
+@app.command()
+def plot(
+    run_dirs: list[Path] = typer.Argument(..., help="Run dirs; runs differing only in seed become mean +- std."),
+    out: Path | None = typer.Option(
+        None, "-o", "--out", help="PNG (default: RUN_DIR/curves.png, or ./curves.png for several runs)."
+    ),
+    smooth: int = typer.Option(5, "--smooth", help="Moving-average window in logged points (1 = raw)."),
+) -> None:
+    """Draw learning curves (success rate, reward terms) from metrics.mcap as a PNG."""
+    from mapush.plot import plot_runs
+
+    if out is None:
+        out = run_dirs[0] / "curves.png" if len(run_dirs) == 1 else Path("curves.png")
+    print(plot_runs(run_dirs, out, smooth))

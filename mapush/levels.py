@@ -1,0 +1,78 @@
+"""The levels mapush can train and evaluate, and the one place that builds a level's env and PPO runner.
+
+`train`, `eval`, `bench` and the experiments build through here; nothing below this layer knows the registry.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+from mapush.envs.high import HighPushEnv
+from mapush.envs.low import LocomotionEnv
+from mapush.envs.mid import MidPushEnv
+from mapush.envs.mid_long import LongMidPushEnv
+from mapush.envs.nav_high import NavHighPushEnv
+from mapush.errors import BadInput
+from mapush.plan import make_planner
+from mapush.rl.frozen import load_mid_policy
+from mapush.rl.runner import MapushRunner, seed_everything, train_cfg_for
+from mapush.rl.vecenv import AgentRowsVecEnv
+
+LEVELS = {
+    "low": LocomotionEnv,
+    "mid": MidPushEnv,
+    "mid_long": LongMidPushEnv,
+    "high": HighPushEnv,
+    "high_nav": NavHighPushEnv,
+}
+"""The env class of each trainable level."""
+
+
+def env_class(cfg: dict) -> type:
+    """The env class of a config's level; BadInput for a level that cannot be trained."""
+    name = cfg["level"]["name"]
+    if name not in LEVELS:
+        raise BadInput(f"level {name!r} cannot be trained yet; valid: {', '.join(LEVELS)}")
+    return LEVELS[name]
+
+
+def make_env(cfg: dict, evaluation: bool = False):
+    """The env of a config. The high levels load their frozen mid level (if they drive one) and an OMPL planner
+    where their paths are planned: at evaluation (`path.plan_at_eval`), in training with `path.plan_in_training`."""
+    cls = env_class(cfg)
+    if cls is LocomotionEnv:
+        return cls(cfg, evaluation=evaluation)
+    if not issubclass(cls, HighPushEnv):
+        return cls(cfg)
+    mid = load_mid_policy(cfg["mid"], cfg["task"]) if cls.needs_mid else None
+    path = cfg["level"]["path"]
+    planner = make_planner(cfg) if path["plan_at_eval" if evaluation else "plan_in_training"] else None
+    return cls(cfg, mid, planner=planner)
+
+
+def torch_threads(cfg: dict) -> tuple[int, int]:
+    """Torch threads of the rollout and of the PPO update (`train.rollout_threads`, `train.update_threads`);
+    0 means as many as MuJoCo steps the batch with (`sim.nthread`, itself 0 for every core)."""
+    sim_threads = int(cfg["sim"]["nthread"]) or os.cpu_count() or 1
+    return tuple(int(cfg["train"][key]) or sim_threads for key in ("rollout_threads", "update_threads"))
+
+
+def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bool = False):
+    """The env and the runner of a config; `run_dir=None` builds them without any logging (evaluation)."""
+    seed_everything(int(cfg["seed"]))
+    env = make_env(cfg, evaluation)
+    vec_env = AgentRowsVecEnv(env, device=cfg["device"])
+    # rsl-rl prints the networks on construction: into train.log for a run, nowhere for an evaluation
+    sink = open(run_dir / "train.log", "a") if run_dir else open(os.devnull, "w")
+    with sink, contextlib.redirect_stdout(sink):
+        runner = MapushRunner(
+            vec_env,
+            train_cfg_for(cfg, env.policy_agents, total_iterations),
+            log_dir=str(run_dir) if run_dir else None,
+            device=cfg["device"],
+            threads=torch_threads(cfg),
+        )
+    runner.add_git_repo_to_log(__file__)  # the commit of mapush's checkout, if any
+    return env, runner

@@ -1,0 +1,56 @@
+"""The deterministic actor as ONNX: one self-contained file with a dynamic batch dim, for runtimes without torch.
+
+rsl-rl's own `export_policy_to_onnx` fixes the batch at 1 and writes the weights to a second file (libraries.md
+1.5), so mapush calls torch's dynamo exporter itself ("ONNX fix A"), the exporter torch keeps; the legacy
+TorchScript-based one ("fix B", 30x faster) is deprecated.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import warnings
+from pathlib import Path
+
+import torch
+
+ONNX_OPSET = 18
+
+
+def export_onnx(actor: torch.nn.Module, obs_dim: int, path: Path) -> Path:
+    """Write `actor` (observation `obs` (batch, obs_dim) -> `actions` (batch, a)) to `path` as ONNX, atomically.
+
+    `actor` is an exportable rsl-rl MLP with its observation normalizer (`MLPModel.as_onnx()` or `.as_jit()`).
+    """
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.tmp")
+    with _quiet_exporter():
+        torch.onnx.export(
+            actor.to("cpu").eval(),
+            (torch.zeros(1, obs_dim),),
+            str(tmp),
+            dynamo=True,
+            external_data=False,  # the weights inside the one file
+            dynamic_shapes=({0: torch.export.Dim("batch")},),
+            input_names=["obs"],
+            output_names=["actions"],
+            opset_version=ONNX_OPSET,
+            verbose=False,  # no progress lines on stdout, where `mapush train` prints its run dir
+        )
+    os.replace(tmp, path)
+    return path
+
+
+@contextlib.contextmanager
+def _quiet_exporter():
+    """Silence the exporter's warnings (torchvision ops it skips, deprecations inside torch) on stderr."""
+    torch_onnx = logging.getLogger("torch.onnx")
+    level = torch_onnx.level
+    torch_onnx.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        torch_onnx.setLevel(level)

@@ -1,0 +1,128 @@
+"""What the numbers of a config may be: every command checks its composed config here before it builds anything.
+
+A value of the wrong type or outside its range (a zero time step, a negative learning rate, an object with no
+area) is one BadInput naming the key, the value and what is valid, before any run dir or result is written.
+Keys a config lacks (the low level has no success distance) are skipped.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from omegaconf import DictConfig, OmegaConf
+
+from mapush.errors import BadInput
+
+Rule = tuple[type, Callable[[float], bool], str]
+
+
+def _at_least(low: float, what: str = "") -> Rule:
+    return float, lambda v: v >= low, f"a number >= {low:g}{what}"
+
+
+def _positive(what: str) -> Rule:
+    return float, lambda v: v > 0, f"a positive {what}"
+
+
+def _count(low: int) -> Rule:
+    return int, lambda v: v >= low, f"an integer >= {low}"
+
+
+def _fraction(low_open: bool = False) -> Rule:
+    return (
+        float,
+        (lambda v: 0 < v <= 1) if low_open else (lambda v: 0 <= v <= 1),
+        ("a number in (0, 1]" if low_open else "a number in [0, 1]"),
+    )
+
+
+RULES: dict[str, Rule] = {
+    "seed": _count(0),
+    "num_envs": _count(1),
+    "train.iterations": _count(1),
+    "train.rollout_threads": _count(0),
+    "train.update_threads": _count(0),
+    "sim.timestep": _positive("time step in s"),
+    "sim.decimation": _count(1),
+    "sim.nthread": _count(0),
+    "sim.arena_size": _positive("size in m"),
+    "sim.floor_friction": _at_least(0.0),
+    "task.collision_distance": _at_least(0.0, " m"),
+    "level.episode_length_s": _positive("number of seconds"),
+    "level.success_distance": _positive("distance in m"),
+    "level.decision_steps": _count(1),
+    "algo.num_steps_per_env": _count(1),
+    "algo.save_interval": _count(1),
+    "algo.keep_checkpoints": _count(0),
+    "algo.algorithm.learning_rate": _positive("learning rate"),
+    "algo.algorithm.num_learning_epochs": _count(1),
+    "algo.algorithm.num_mini_batches": _count(1),
+    "algo.algorithm.clip_param": _positive("clip range"),
+    "algo.algorithm.gamma": _fraction(low_open=True),
+    "algo.algorithm.lam": _fraction(),
+    "algo.algorithm.entropy_coef": _at_least(0.0),
+    "algo.algorithm.value_loss_coef": _at_least(0.0),
+    "algo.algorithm.max_grad_norm": _positive("gradient norm"),
+    "algo.algorithm.desired_kl": _positive("KL divergence"),
+    "eval.episodes": _count(1),
+}
+"""Every checked value: key -> (type, test, what is valid)."""
+
+
+def check_config(cfg: DictConfig | dict) -> None:
+    """BadInput for the first value of `cfg` that breaks `RULES` or describes an impossible object."""
+    cfg = cfg if isinstance(cfg, DictConfig) else OmegaConf.create(cfg)
+    absent = object()
+    for key, (kind, test, valid) in RULES.items():
+        value = OmegaConf.select(cfg, key, default=absent, throw_on_missing=False)
+        if value is absent or value is None:
+            continue
+        _check_value(key, value, kind, test, valid)
+    obj = OmegaConf.select(cfg, "task.object", default=None)
+    if obj is not None:
+        check_object(obj)
+
+
+def _check_value(key: str, value, kind: type, test: Callable, valid: str) -> None:
+    numeric = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
+    if not numeric or not math.isfinite(value) or not test(value):
+        raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")
+
+
+def check_object(obj) -> None:
+    """The object's parts have positive sizes and masses, and its hull (if given) encloses an area."""
+    parts = obj.get("parts") or []
+    if not parts:
+        raise BadInput("task.object.parts is empty; valid: one or more {type: box|cylinder, size, pos, mass}")
+    for i, part in enumerate(parts):
+        where = f"task.object.parts[{i}]"
+        size = list(part.get("size") or [])
+        if part.get("type") not in ("box", "cylinder"):
+            raise BadInput(f"{where}.type={part.get('type')!r} is not valid; valid: box, cylinder")
+        wanted = 3 if part["type"] == "box" else 2
+        if len(size) != wanted or not all(_is_number(s) and s > 0 for s in size):
+            shape = "[x, y, z] full extents" if wanted == 3 else "[radius, height]"
+            raise BadInput(f"{where}.size={size!r} is not valid; valid: {wanted} positive numbers, {shape} in m")
+        _check_value(f"{where}.mass", part.get("mass"), float, lambda v: v > 0, "a positive mass in kg")
+    hull = obj.get("hull")
+    if hull is not None and polygon_area(hull) <= 1e-9:
+        raise BadInput(
+            f"task.object.hull={OmegaConf.to_container(hull) if OmegaConf.is_config(hull) else hull!r} encloses "
+            "no area; valid: null (the footprint's convex hull) or 3+ [x, y] corners of a counter-clockwise polygon"
+        )
+
+
+def polygon_area(points) -> float:
+    """Signed area of a polygon (shoelace formula; positive when counter-clockwise); 0 if it is not one."""
+    try:
+        xy = [(float(x), float(y)) for x, y in points]
+    except (TypeError, ValueError):
+        return 0.0
+    if len(xy) < 3:
+        return 0.0
+    return 0.5 * sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(xy, xy[1:] + xy[:1], strict=True))
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

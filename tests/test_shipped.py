@@ -1,0 +1,71 @@
+"""Shipping a hierarchy (`mapush ship`) and the policies shipped in the package (`shipped:NAME`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import torch
+from conftest import _run_cli
+from omegaconf import OmegaConf
+
+from mapush.rl.policy import load_policy
+from mapush.rundir import PACKAGE, shipped_names, shipped_run
+
+
+@pytest.fixture(scope="module")
+def high_run(smoke_run, tmp_path_factory) -> Path:
+    """A 1-iteration high level over the smoke mid level, made once through the CLI. Read-only."""
+    root = tmp_path_factory.mktemp("high_runs")
+    proc = _run_cli(["train", "level=high", f"mid={smoke_run}", "debug=smoke", f"train.run_root={root}"], cwd=root)
+    assert proc.returncode == 0, proc.stderr
+    return Path(proc.stdout.strip().splitlines()[-1])
+
+
+def test_a_high_level_ships_with_its_mid_level_and_evaluates_from_anywhere(cli, high_run, smoke_run, tmp_path):
+    out = tmp_path / "package" / "cuboid"
+    proc = cli("ship", high_run, out, "--episodes", "2", "--seeds", "0")
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["high", "mid"]
+    assert OmegaConf.load(out / "high" / "config.yaml").mid == "../mid"  # relative: the package can move
+    result = json.loads((out / "high" / "eval.json").read_text())
+    assert result["episodes"] == 2 and 0.0 <= result["success_rate"] <= 1.0
+    moved = tmp_path / "elsewhere"
+    (out).rename(moved)
+    for level, source in (("mid", smoke_run), ("high", high_run)):
+        shipped, trained = load_policy(moved / level), load_policy(source)
+        obs = torch.randn(8, shipped.obs_dim)
+        assert torch.equal(shipped.actor(obs), trained.actor(obs))
+    again = cli("eval", moved / "high", "--episodes", "1", "--seeds", "0")
+    assert again.returncode == 0, again.stderr
+
+
+def test_shipping_an_unfinished_run_is_refused_and_writes_nothing(cli, run_copy, tmp_path):
+    (run_copy / "policy.pt").unlink()
+    out = tmp_path / "out"
+    proc = cli("ship", run_copy, out)
+    assert proc.returncode == 2 and "is not finished" in proc.stderr and not out.exists()
+
+
+def test_an_unknown_shipped_name_lists_the_shipped_ones(cli):
+    proc = cli("eval", "shipped:sphere")
+    assert proc.returncode == 2
+    assert "'sphere'" in proc.stderr and "shipped:go1" in proc.stderr
+
+
+@pytest.mark.parametrize("name", shipped_names())
+def test_every_shipped_policy_loads_and_runs_one_episode_without_writing_into_the_package(cli, name, tmp_path):
+    before = {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")}
+    proc = cli("eval", f"shipped:{name}", "--episodes", "1", "--seeds", "0")
+    assert proc.returncode == 0, proc.stderr
+    out = tmp_path / "runs" / "shipped" / shipped_run(name).relative_to(PACKAGE) / "eval.json"
+    assert json.loads(out.read_text())["episodes"] == 1
+    assert {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")} == before
+
+
+@pytest.mark.parametrize("name", [n for n in shipped_names() if n != "go1" and not n.endswith("/mid")])
+def test_a_shipped_hierarchy_with_another_agent_count_is_refused(cli, name):
+    proc = cli("eval", f"shipped:{name}", "task.num_agents=5")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert "agents" in proc.stderr and "valid:" in proc.stderr
