@@ -16,10 +16,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from mapush import levels
-from mapush.config import compose_config, to_plain
+from mapush.config import compose_config
 from mapush.errors import BadInput
 from mapush.rl import policy as policies
-from mapush.schema import check_config
 
 __all__ = ["BadInput", "compose", "load_policy", "make_env"]
 
@@ -27,14 +26,7 @@ __all__ = ["BadInput", "compose", "load_policy", "make_env"]
 def compose(overrides: list[str] | None = None) -> dict:
     """The config of `mapush train OVERRIDES...` as a plain dict, checked as `mapush train` checks it (the values'
     types and ranges, then the level's own checks); BadInput for a mistake. A high level's `mid` becomes absolute."""
-    cfg = compose_config(list(overrides or []))
-    check_config(cfg)
-    plain = to_plain(cfg)
-    cls = levels.env_class(plain)
-    cls.validate(plain)
-    if getattr(cls, "needs_mid", False) and plain.get("mid"):
-        plain["mid"] = str(Path(plain["mid"]).resolve())
-    return plain
+    return levels.checked(compose_config(list(overrides or [])))
 
 
 def make_env(overrides: list[str] | None = None, evaluation: bool = False):

@@ -25,6 +25,7 @@ import torch
 
 from mapush.config import CONF_DIR, compose_config, to_plain
 from mapush.lowlevel import BACKENDS
+from mapush.planning.geometry import rotate
 from mapush.sim.core import BatchSim
 
 LAG_GRID = np.geomspace(0.02, 1.0, 60)
@@ -69,8 +70,7 @@ def run_steps(
         state = sim.read()
         yaw = state["robot_yaw"][:, 0]
         vel = state["robot_vel"][:, 0]
-        c, s = torch.cos(yaw), torch.sin(yaw)
-        body = torch.stack([c * vel[:, 0] + s * vel[:, 1], -s * vel[:, 0] + c * vel[:, 1], vel[:, 2]], -1)
+        body = torch.cat([rotate(vel[:, :2], yaw, inverse=True), vel[:, 2:3]], -1)
         robot_vel.append(body.numpy())
         object_speed.append(torch.linalg.vector_norm(state["object_vel"][:, :2], dim=-1).numpy())
     return {"robot_vel": np.stack(robot_vel, 1), "object_speed": np.stack(object_speed, 1), "dt": sim.dt}

@@ -16,8 +16,8 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.errors import BadInput
 from mapush.schema import check_config
 
-CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parents[1] / "conf"))
-"""The `conf/` tree. The package is installed in editable mode, so it sits beside `mapush/`."""
+CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
+"""The `mapush/conf/` tree: package data, so a checkout, an editable install and a wheel all compose alike."""
 
 GROUPS = ("task", "level", "lowlevel", "reward", "algo", "critic", "debug")
 
@@ -79,7 +79,7 @@ def to_plain(cfg: DictConfig) -> dict:
 
 def git_state() -> dict:
     """The commit of the mapush checkout and whether it has uncommitted changes (None outside git)."""
-    root = CONF_DIR.parent
+    root = CONF_DIR.parent  # inside the checkout (git finds the repository from any dir in it)
     try:
         commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=True)
         status = subprocess.run(["git", "status", "--porcelain"], cwd=root, capture_output=True, text=True)

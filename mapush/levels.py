@@ -9,6 +9,9 @@ import contextlib
 import os
 from pathlib import Path
 
+from omegaconf import DictConfig
+
+from mapush.config import to_plain
 from mapush.envs.high import HighPushEnv
 from mapush.envs.low import LocomotionEnv
 from mapush.envs.mid import MidPushEnv
@@ -19,6 +22,7 @@ from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.runner import MapushRunner, seed_everything, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
+from mapush.schema import check_config
 
 LEVELS = {
     "low": LocomotionEnv,
@@ -36,6 +40,21 @@ def env_class(cfg: dict) -> type:
     if name not in LEVELS:
         raise BadInput(f"level {name!r} cannot be trained yet; valid: {', '.join(LEVELS)}")
     return LEVELS[name]
+
+
+def checked(cfg: DictConfig) -> dict:
+    """`cfg` checked as every command checks a config before it builds or writes anything: value types and ranges
+    (`schema`), the level's own checks, and a high level's frozen mid level (made absolute in `cfg`, so that a run
+    finds it from anywhere). Returns it as a plain dict; BadInput for a mistake."""
+    check_config(cfg)
+    plain = to_plain(cfg)
+    cls = env_class(plain)
+    cls.validate(plain)
+    if getattr(cls, "needs_mid", False):
+        if cfg.mid:
+            cfg.mid = plain["mid"] = str(Path(cfg.mid).resolve())
+        load_mid_policy(plain["mid"], plain["task"])
+    return plain
 
 
 def make_env(cfg: dict, evaluation: bool = False):

@@ -38,6 +38,11 @@ def shipped_run(name: str) -> Path:
     return path
 
 
+def find_runs(root: Path) -> list[Path]:
+    """The run dirs under `root` (those holding `meta.json`; not their `.hydra/` copies), in name order."""
+    return sorted(p.parent for p in Path(root).glob("**/meta.json"))
+
+
 def checkpoints(run_dir: Path) -> list[Path]:
     """The run's checkpoints, oldest iteration first."""
     found = [p for p in Path(run_dir).glob("model_*.pt") if CHECKPOINT.search(p.name)]

@@ -66,8 +66,9 @@ RULES: dict[str, Rule] = {
     "algo.algorithm.max_grad_norm": _positive("gradient norm"),
     "algo.algorithm.desired_kl": _positive("KL divergence"),
     "eval.episodes": _count(1),
+    "eval.seeds": _count(0),
 }
-"""Every checked value: key -> (type, test, what is valid)."""
+"""Every checked value: key -> (type, test, what is valid); for a list, of each item."""
 
 
 def check_config(cfg: DictConfig | dict) -> None:
@@ -78,7 +79,8 @@ def check_config(cfg: DictConfig | dict) -> None:
         value = OmegaConf.select(cfg, key, default=absent, throw_on_missing=False)
         if value is absent or value is None:
             continue
-        _check_value(key, value, kind, test, valid)
+        for item in value if OmegaConf.is_list(value) else [value]:  # a list's rule holds for each of its items
+            _check_value(key, item, kind, test, valid)
     obj = OmegaConf.select(cfg, "task.object", default=None)
     if obj is not None:
         check_object(obj)

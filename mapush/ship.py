@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 from mapush.config import load_run_config
 from mapush.errors import BadInput
 from mapush.eval.rollout import evaluate
-from mapush.rl.export import export_onnx
+from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import load_policy, read_checkpoint
 from mapush.rl.runner import ONNX_FILE, POLICY_FILE
 from mapush.rundir import checkpoints
@@ -30,32 +30,54 @@ MID_DIR = "mid"
 
 
 def ship(run_dir: Path, out: Path, episodes: int, seeds: list[int]) -> Path:
-    """Write `out` from the finished `run_dir` (and its mid level), then evaluate it; returns its eval.json."""
-    run_dir, out = Path(run_dir), Path(out)
+    """Write `out` from the finished `run_dir` (and its mid level), then evaluate it; returns its eval.json.
+
+    Everything is checked before anything is written; `out` is built beside itself and then replaces it.
+    """
+    run_dir, out = Path(run_dir), Path(out).resolve()
     cfg = load_run_config(run_dir)
-    if not (run_dir / POLICY_FILE).is_file() or not checkpoints(run_dir):
-        raise BadInput(f"run {str(run_dir)!r} is not finished (no {POLICY_FILE}); valid: a finished run dir")
+    sources = {"": run_dir}
+    if cfg.get("mid"):
+        sources = {MID_DIR: Path(cfg.mid), str(cfg.level.name): run_dir}
+    for source in sources.values():
+        _check_finished(source)
+        if _overlap(source.resolve(), out):
+            raise BadInput(f"ship target {str(out)!r} overlaps the run {str(source)!r}; valid: a path outside it")
+    if out.exists() and any(out.iterdir()) and not _is_shipped(out):
+        raise BadInput(f"ship target {str(out)!r} holds other files; valid: a new, empty or shipped dir")
     tmp = out.with_name(f"{out.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
-    if cfg.get("mid"):
-        write_slim(Path(cfg.mid), tmp / MID_DIR)
-        policy_dir = f"{cfg.level.name}"
-        write_slim(run_dir, tmp / policy_dir, mid=f"../{MID_DIR}")
-    else:
-        policy_dir = ""
-        write_slim(run_dir, tmp)
+    try:
+        for sub, source in sources.items():
+            write_slim(source, tmp / sub, mid=f"../{MID_DIR}" if sub and sub != MID_DIR else None)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     shutil.rmtree(out, ignore_errors=True)
     os.replace(tmp, out)
-    shipped = out / policy_dir
+    shipped = out / next(reversed(sources))  # the evaluated policy: the run itself, or the high level over its mid
     return evaluate(shipped, episodes, seeds, ["log.eval_episodes=0"], out_dir=shipped)  # no episodes.mcap
+
+
+def _check_finished(run_dir: Path) -> None:
+    missing = [name for name in (*RUN_FILES, POLICY_FILE) if not (run_dir / name).is_file()]
+    if missing or not checkpoints(run_dir):
+        what = "is not finished" if POLICY_FILE in missing else f"lacks {missing or 'a checkpoint'}"
+        raise BadInput(f"run {str(run_dir)!r} {what}; valid: a finished run dir (with {POLICY_FILE})")
+
+
+def _overlap(a: Path, b: Path) -> bool:
+    return a == b or a.is_relative_to(b) or b.is_relative_to(a)
+
+
+def _is_shipped(path: Path) -> bool:
+    """Whether `path` holds an earlier `mapush ship` (which shipping again replaces)."""
+    return any("shipped_from" in json.loads(m.read_text()) for m in path.glob("**/meta.json"))
 
 
 def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     """The slim copy of a finished run in `dest`; `mid` replaces its config's frozen mid-level path."""
     run_dir = Path(run_dir)
-    missing = [name for name in RUN_FILES if not (run_dir / name).is_file()]
-    if missing or not checkpoints(run_dir):
-        raise BadInput(f"run {str(run_dir)!r} lacks {missing or 'a checkpoint'}; valid: a finished run dir")
     dest.mkdir(parents=True)
     for name in RUN_FILES:
         shutil.copy2(run_dir / name, dest / name)
@@ -68,7 +90,7 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     torch.save({"actor_state_dict": data["actor_state_dict"], "iter": data["iter"], "infos": None}, dest / last.name)
     policy = load_policy(dest)  # the exports are of the shipped checkpoint
     export_onnx(policy.actor, policy.obs_dim, dest / ONNX_FILE)
-    torch.jit.script(policy.actor).save(str(dest / POLICY_FILE))
+    export_torchscript(policy.actor, dest / POLICY_FILE)
     meta = json.loads((dest / "meta.json").read_text())
     meta["shipped_from"] = {"run": run_dir.name, "checkpoint": last.name}
     (dest / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")

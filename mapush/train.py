@@ -9,11 +9,10 @@ from omegaconf import DictConfig
 
 from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.errors import BadInput
-from mapush.levels import build, env_class
+from mapush.levels import build, checked
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
-from mapush.rl.frozen import load_mid_policy
 from mapush.rl.runner import export_policy, learn, load_checkpoint, obs_width
 from mapush.rundir import checkpoint_iteration, checkpoints
 from mapush.schema import check_config
@@ -24,14 +23,7 @@ TRAIN_EPISODES = "train_episodes.mcap"
 
 def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     """Train a fresh run; returns its run dir."""
-    check_config(cfg)
-    plain = to_plain(cfg)
-    cls = env_class(plain)
-    cls.validate(plain)
-    if getattr(cls, "needs_mid", False):
-        if cfg.mid:
-            cfg.mid = plain["mid"] = str(Path(cfg.mid).resolve())  # the run must find its mid level from anywhere
-        load_mid_policy(plain["mid"], plain["task"])  # fails here, before a run dir exists
+    plain = checked(cfg)  # every mistake fails here, before a run dir exists
     run_dir = new_run_dir(cfg)
     save_run_config(run_dir, cfg, overrides, command)
     print(run_dir, flush=True)

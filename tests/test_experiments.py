@@ -12,6 +12,7 @@ import pytest
 from mapush.config import group_options
 from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
 from mapush.report import tables
+from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
 
@@ -84,14 +85,14 @@ def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (jobs[finished] / RESULT).read_text() == kept  # not run again
     assert (mid_run / "model_2.pt").is_file() and (mid_run / "policy.pt").is_file()  # resumed in the same run dir
-    assert [p.parent for p in stage_dir.glob("**/config.yaml")] == [mid_run]
+    assert find_runs(stage_dir) == [mid_run]
     assert json.loads((jobs[cut] / RESULT).read_text())["stages"]["mid"] == str(mid_run)
     assert "Learning iteration 2/3" in (mid_run / "train.log").read_text()
 
 
 def test_a_failed_job_does_not_stop_the_others_and_is_listed(cli, tmp_path):
     # a value that composes and passes the checks but breaks PPO when training starts: both jobs fail
-    proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", "method=ours,ours_no_ocb", "algo.algorithm.gamma=abc")
+    proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", "method=ours,ours_no_ocb", "algo.algorithm.optimizer=nope")
     assert proc.returncode == 1
     assert "0 jobs finished, 2 failed" in proc.stdout and "FAILED" in proc.stdout
     assert len(list((tmp_path / "sweeps").glob("**/failed.txt"))) == 2

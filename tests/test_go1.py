@@ -150,23 +150,23 @@ def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(cl
     assert torch.equal(shipped(obs), source(obs))  # the same actor as the run's own export
 
 
-def test_the_sim_to_sim_table_compares_a_tracker_run_with_itself_on_go1s(smoke_run, low_run, tmp_path):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("s2s", Path(__file__).parents[1] / "tools" / "sim2sim.py")
-    sim2sim = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(sim2sim)
+def test_compare_evaluates_a_tracker_run_as_trained_and_on_go1s(cli, smoke_run, low_run, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(smoke_run, run)
-    row = sim2sim.check(run, episodes=2, seeds=[0], go1_overrides=[f"lowlevel.policy={low_run / 'policy.pt'}"])
-    go1 = json.loads((run / "eval_sim2sim_go1.json").read_text())
-    tracker = json.loads((run / "eval_sim2sim_tracker.json").read_text())
+    policy = f"lowlevel.policy={low_run / 'policy.pt'}"
+    out = tmp_path / "table"
+    proc = cli("compare", run, "lowlevel=go1", policy, "--episodes", "2", "--seeds", "0", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    tracker = json.loads((run / "eval_as_trained.json").read_text())
+    go1_files = [p for p in run.glob("eval_lowlevel-go1*.json")]
+    assert len(go1_files) == 1
+    go1 = json.loads(go1_files[0].read_text())
+    assert tracker["episodes"] == go1["episodes"] == 2 and go1["checkpoint"] == tracker["checkpoint"]
+    row = json.loads(out.with_suffix(".json").read_text())["rows"][0]
     assert row["drop"] == pytest.approx(tracker["success_rate"] - go1["success_rate"])
-    assert (
-        row["go1"]["success_rate"] == go1["success_rate"]
-        and (run / "eval.json").exists() == (smoke_run / "eval.json").exists()
-    )
-    assert "| run |" in sim2sim.markdown([row], 2, [0], "a policy")
+    assert row["with_overrides"]["success_rate"] == go1["success_rate"]
+    assert (run / "eval.json").exists() == (smoke_run / "eval.json").exists()  # the run's own eval untouched
+    assert "| run | cuboid | 2 |" in out.with_suffix(".md").read_text()
 
 
 def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):

@@ -26,7 +26,7 @@ def test_hydra_run_dir_decides_the_run_dir_which_carries_dot_hydra(cli, tmp_path
     assert (chosen / "policy.pt").is_file()
     hydra = chosen / ".hydra"
     assert yaml.safe_load((hydra / "config.yaml").read_text())["train"]["run_dir"] == str(chosen)
-    assert yaml.safe_load((hydra / "overrides.yaml").read_text()) == ["debug=smoke", f"hydra.run.dir={chosen}"]  # as typed
+    assert yaml.safe_load((hydra / "overrides.yaml").read_text()) == ["debug=smoke", f"hydra.run.dir={chosen}"]
     assert yaml.safe_load((hydra / "hydra.yaml").read_text())["hydra"]["run"]["dir"] == str(chosen)
     again = cli("train", "debug=smoke", f"hydra.run.dir={chosen}")
     assert again.returncode == 2 and "is not empty" in again.stderr

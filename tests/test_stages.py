@@ -7,6 +7,7 @@ from pathlib import Path
 
 from mapush.config import compose_config
 from mapush.experiments.pipeline import RESULT, planned_stages
+from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
 
@@ -68,6 +69,6 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     results = [json.loads(p.read_text()) for p in sorted(root.glob(f"*/*/{RESULT}"))]
     assert sorted(r["experiment"] for r in results) == ["main", "scale"]
     assert results[0]["stages"] == results[1]["stages"]  # both cells name the same run dirs
-    assert len(list((root / "stages").glob("*/**/config.yaml"))) == 2  # one mid and one high run in all
+    assert len(find_runs(root / "stages")) == 2  # one mid and one high run in all
     for run in map(Path, results[0]["stages"].values()):
         assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]  # trained once, not resumed

@@ -127,8 +127,9 @@ def test_no_training_video_by_default(cfg_for):
 @pytest.mark.parametrize("name", ["", "clip", "task.num_agents-3"])
 def test_the_eval_video_is_named_like_its_eval_json(name):
     eval_json = Path("run") / (f"eval_{name}.json" if name else "eval.json")
-    assert video.eval_video_of(eval_json) == video.eval_video_path(Path("run"), name)
-    assert video.eval_video_of(eval_json).name == (f"eval_video_{name}.mp4" if name else "eval_video.mp4")
+    expected = Path("run") / (f"eval_video_{name}.mp4" if name else "eval_video.mp4")
+    assert video.eval_video_of(eval_json) == expected
+    assert video.eval_video_path(Path("run"), name) == expected
 
 
 # ------------------------------------------------------------------------------------------ preflight checks

@@ -16,8 +16,13 @@ PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 """Commands that take Hydra overrides (`key=value`) after their own options."""
 
 
-def int_list(text: str, flag: str) -> list[int]:
+def number_list(text: str, flag: str, kind: type = int, minimum: float = 0) -> list:
+    """`0,1,2` -> [0, 1, 2] (of `kind`, each >= `minimum`); BadInput naming the flag otherwise."""
+    name = "integers" if kind is int else "numbers"
     try:
-        return [int(x) for x in text.split(",") if x.strip()]
+        values = [kind(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise BadInput(f"{flag} {text!r} must be comma-separated integers, e.g. 0,1,2,3") from None
+        values = []
+    if not values or min(values) < minimum:
+        raise BadInput(f"{flag} {text!r} is not valid; valid: comma-separated {name} >= {minimum:g}, e.g. 1,2,3")
+    return values

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, int_list
+from mapush.cli.app import PASS_THROUGH, app, number_list
 from mapush.errors import BadInput
 
 DRY_RUN = typer.Option(False, "--dry-run", help="Print the stages it would train and reuse; train nothing.")
@@ -43,9 +43,7 @@ def scale(
     dry_run: bool = DRY_RUN,
 ) -> None:
     """The cylinder scalability study: the whole hierarchy with each robot count, several seeds (a sweep)."""
-    counts = int_list(agents, "--agents")
-    if not counts or min(counts) < 1:
-        raise BadInput(f"--agents {agents!r} must be robot counts >= 1, e.g. 1,2,3,4")
+    counts = number_list(agents, "--agents", minimum=1)
     _sweep(["experiment=scale", f"agents={','.join(map(str, counts))}", *ctx.args], dry_run)
 
 
@@ -82,3 +80,25 @@ def tables(
         total = sum(len(cells) for _, cells in table.rows)
         missing = f", missing cells listed in {table.name}.md" if table.missing else ""
         print(f"{out / table.name}.{{md,tex,csv,json}}: {filled}/{total} cells filled{missing}")
+
+
+@app.command(context_settings=PASS_THROUGH)
+def compare(
+    ctx: typer.Context,
+    targets: list[str] = typer.Argument(..., help="Run dirs, then the overrides to compare with (key=value)."),
+    episodes: int | None = typer.Option(None, "--episodes", help="Trials per seed (default: eval.episodes)."),
+    seeds: str | None = typer.Option(None, "--seeds", help="Comma-separated seeds (default: eval.seeds)."),
+    out: Path = typer.Option(Path("results/compare"), "--out", help="Writes OUT.md and OUT.json."),
+) -> None:
+    """Evaluate runs as trained and with overrides (e.g. lowlevel=go1: the sim-to-sim check) into one table."""
+    from mapush.report.compare import compare_run, write_comparison
+
+    if episodes is not None and episodes < 1:
+        raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
+    seed_list = number_list(seeds, "--seeds") if seeds else None
+    overrides = [t for t in targets if "=" in t] + list(ctx.args)  # a variadic argument takes the overrides too
+    runs = [Path(t) for t in targets if "=" not in t]
+    if not runs:
+        raise BadInput("mapush compare needs run dirs; valid: mapush compare RUN_DIR... key=value...")
+    rows = [compare_run(run, episodes, seed_list, overrides) for run in runs]
+    print(write_comparison(rows, overrides, out), end="")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, int_list
+from mapush.cli.app import PASS_THROUGH, app, number_list
 from mapush.errors import BadInput
 
 CFG_PARTS = ("job", "hydra", "all")
@@ -75,7 +75,7 @@ def evaluate(
         require_offscreen_gl()
     from mapush.eval.rollout import evaluate as run_eval
 
-    seed_list = int_list(seeds, "--seeds") if seeds else None
+    seed_list = number_list(seeds, "--seeds") if seeds else None
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     if name and not name.replace("-", "").replace("_", "").isalnum():
@@ -108,6 +108,8 @@ def play(
     """Watch the policy push in MuJoCo's native viewer (needs a display), episode after episode, in real time."""
     from mapush.viz.preflight import require_display
 
+    if seed < 0:
+        raise BadInput(f"--seed {seed} is not valid; valid: an integer >= 0")
     require_display()
     from mapush.eval.play import play as run_play
 
@@ -126,4 +128,4 @@ def ship(
 
     if episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    print(write_shipped(run, out, episodes, int_list(seeds, "--seeds")))
+    print(write_shipped(run, out, episodes, number_list(seeds, "--seeds")))

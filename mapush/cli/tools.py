@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app
+from mapush.cli.app import PASS_THROUGH, app, number_list
 from mapush.errors import BadInput
 
 
@@ -81,6 +81,7 @@ def plan(
     finally:
         planner.close()
     if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
         json_path.write_text(json.dumps(record, indent=2) + "\n")
         print(json_path)
     if png:
@@ -111,9 +112,7 @@ def calibrate(
     unknown = sorted(set(task_list) - set(group_options("task")))
     if unknown or not task_list:
         raise BadInput(f"--tasks {tasks!r}: unknown {unknown}; valid: {', '.join(group_options('task'))}")
-    step_sizes = [float(x) for x in steps.split(",") if x]
-    if not step_sizes or min(step_sizes) <= 0:
-        raise BadInput(f"--steps {steps!r} must be positive sizes, e.g. 0.25,0.5")
+    step_sizes = number_list(steps, "--steps", kind=float, minimum=1e-3)
     if settle < 0 or duration <= 0:
         raise BadInput(f"--settle {settle} / --duration {duration}: valid: settle >= 0, duration > 0 seconds")
     overrides = list(ctx.args)

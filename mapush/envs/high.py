@@ -38,7 +38,7 @@ from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
 from mapush.logging.scene import SceneLayout
 from mapush.lowlevel import BACKENDS
-from mapush.planning.geometry import corners, point_distance, polygon_gap, rectangles, transform
+from mapush.planning.geometry import corners, point_distance, polygon_gap, rectangles, rotate, transform
 from mapush.planning.paths import nearest_index, random_curved_paths
 from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
@@ -389,13 +389,6 @@ def target_heading(env: HighPushEnv) -> torch.Tensor:
     """Direction from the object to the final target, rad (E,): the x axis of the target frame."""
     to_target = env.target_xy - env.object_xy
     return torch.atan2(to_target[:, 1], to_target[:, 0])
-
-
-def rotate(vectors: torch.Tensor, angle: torch.Tensor) -> torch.Tensor:
-    """Vectors (E, ..., 2) turned by `angle` (E,) rad, counter-clockwise."""
-    shape = (-1, *(1,) * (vectors.dim() - 2))
-    c, s = torch.cos(angle).view(shape), torch.sin(angle).view(shape)
-    return torch.stack([c * vectors[..., 0] - s * vectors[..., 1], s * vectors[..., 0] + c * vectors[..., 1]], -1)
 
 
 def high_observation(env: HighPushEnv) -> torch.Tensor:

@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import torch
 
+from mapush.planning.geometry import rotate
+
 
 def to_agent_frame(points: torch.Tensor, robot_xy: torch.Tensor, robot_yaw: torch.Tensor) -> torch.Tensor:
     """x^i = R(-yaw_i) (x - p_i) for points (E, A, ..., 2) seen by robot i at robot_xy (E, A, 2), yaw (E, A)."""
     extra = points.dim() - 3
-    shape = robot_yaw.shape + (1,) * extra
-    c, s = torch.cos(robot_yaw).view(shape), torch.sin(robot_yaw).view(shape)
     rel = points - robot_xy.view(*robot_xy.shape[:2], *(1,) * extra, 2)
-    return torch.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], -1)
+    return rotate(rel, robot_yaw, inverse=True)
 
 
 def angle_features(angle: torch.Tensor) -> torch.Tensor:

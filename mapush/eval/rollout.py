@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.rewards.manager import RewardManager
 from mapush.rl.runner import load_checkpoint, obs_width
-from mapush.rundir import resolve_checkpoint
+from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
 
 EPISODES = "episodes.mcap"
@@ -108,21 +109,35 @@ def evaluate(
     name = name or overrides_name([o for o in overrides if not o.lstrip("+~").startswith(("log.", "eval."))])
     out_dir = Path(out_dir) if out_dir is not None else output_dir(run_dir)
     cfg = to_plain(apply_overrides(load_run_config(run_dir), overrides))
-    out_dir.mkdir(parents=True, exist_ok=True)
     episodes = episodes or cfg["eval"]["episodes"]
     seeds = seeds if seeds else list(cfg["eval"]["seeds"])
     exit_on_sigterm()
-    suffix = f"_{name}" if name else ""
-    recorders = [eval_video_recorder(cfg, eval_video_path(out_dir, name))] if video else []  # checks the renderer
-    recorders += _eval_recorders(cfg, out_dir / f"{Path(EPISODES).stem}{suffix}.mcap", live)
+    created = not out_dir.exists()
+    out_dir.mkdir(parents=True, exist_ok=True)
     try:
-        per_seed = [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
+        per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
+    except BaseException:
+        if created:  # a refused evaluation (another agent count, a bad video setting) leaves nothing behind
+            shutil.rmtree(out_dir, ignore_errors=True)
+        raise
+    out = out_dir / f"eval{_suffix(name)}.json"
+    out.write_text(json.dumps(summarize(cfg, str(checkpoint), episodes, seeds, per_seed), indent=2) + "\n")
+    return out
+
+
+def _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video) -> list[dict]:
+    """Every seed's outcomes, with the episode file, the live view and the video watching."""
+    recorders = [eval_video_recorder(cfg, eval_video_path(out_dir, name))] if video else []  # checks the renderer
+    recorders += _eval_recorders(cfg, out_dir / f"{Path(EPISODES).stem}{_suffix(name)}.mcap", live)
+    try:
+        return [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
     finally:
         for recorder in recorders:
             recorder.close()
-    out = out_dir / f"eval{suffix}.json"
-    out.write_text(json.dumps(summarize(cfg, str(checkpoint), episodes, seeds, per_seed), indent=2) + "\n")
-    return out
+
+
+def _suffix(name: str) -> str:
+    return f"_{name}" if name else ""
 
 
 def overrides_name(overrides: list[str]) -> str:
@@ -133,10 +148,9 @@ def overrides_name(overrides: list[str]) -> str:
 def output_dir(run_dir: Path) -> Path:
     """Where an evaluation of `run_dir` writes: the run dir, or for a policy shipped inside the installed package
     `runs/shipped/<its path in the package>` under the working dir."""
-    package = Path(__file__).resolve().parents[1]
     resolved = Path(run_dir).resolve()
-    if resolved.is_relative_to(package):
-        return Path("runs") / "shipped" / resolved.relative_to(package)
+    if resolved.is_relative_to(PACKAGE):
+        return Path("runs") / "shipped" / resolved.relative_to(PACKAGE)
     return Path(run_dir)
 
 

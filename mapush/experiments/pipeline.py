@@ -27,7 +27,7 @@ from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
 from mapush.experiments.stages import STAGE_REF
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
-from mapush.rundir import checkpoints, is_complete
+from mapush.rundir import checkpoints, find_runs, is_complete
 
 RESULT = "result.json"
 
@@ -171,7 +171,7 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
 def train_stage(stage_dir: Path, overrides: list[str], iterations: int) -> Path:
     """The finished run of one stage in its store dir: reused, resumed from its last checkpoint, or trained from
     scratch for `iterations`."""
-    for run_dir in sorted(p.parent for p in stage_dir.glob("**/config.yaml")):
+    for run_dir in find_runs(stage_dir):
         if (run_dir / POLICY_FILE).is_file():
             return run_dir
         if is_complete(run_dir):

@@ -21,7 +21,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config, to_plain
 from mapush.rl.runner import POLICY_FILE
-from mapush.rundir import checkpoint_iteration, checkpoints
+from mapush.rundir import checkpoint_iteration, checkpoints, find_runs
 
 STORE = "stages"
 """The store's folder under `sweep_root`."""
@@ -76,7 +76,7 @@ def stage_dir(sweep_root: Path, key: str) -> Path:
 
 def status(directory: Path, iterations: int) -> str:
     """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
-    for run_dir in sorted(p.parent for p in Path(directory).glob("**/config.yaml")):
+    for run_dir in find_runs(Path(directory)):
         if (run_dir / POLICY_FILE).is_file():
             return "finished"
         found = checkpoints(run_dir)

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import torch
 
+from mapush.planning.geometry import rotate
+
 
 def go_to_point(
     robot_xy: torch.Tensor,
@@ -30,8 +32,7 @@ def go_to_point(
         arrive_m: within this distance the robot stops turning (the bearing is meaningless at the goal).
     """
     offset = goal_xy - robot_xy
-    c, s = torch.cos(robot_yaw), torch.sin(robot_yaw)
-    body = torch.stack([c * offset[..., 0] + s * offset[..., 1], -s * offset[..., 0] + c * offset[..., 1]], -1)
+    body = rotate(offset, robot_yaw, inverse=True)
     velocity = gain * body
     over = (velocity.abs() / limits[:2]).amax(-1, keepdim=True).clamp(min=1.0)
     velocity = velocity / over  # keeps the direction

@@ -11,6 +11,8 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from mapush.planning.geometry import rotate
+
 ROBOT_BODY = "base"
 JOINTS = ("x", "y", "yaw")
 """Joint names inside one robot, in qpos order: world-x slide, world-y slide, yaw hinge."""
@@ -86,8 +88,7 @@ class Tracker:
     def command(self, ctrl: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, cmd: np.ndarray) -> None:
         """Write body-frame commands (E, A, 3) = (vx, vy, yaw rate) as world-frame actuator targets into ctrl."""
         yaw = qpos[:, self.qpos_idx[:, 2]]
-        c, s = np.cos(yaw), np.sin(yaw)
-        world = np.stack([c * cmd[..., 0] - s * cmd[..., 1], s * cmd[..., 0] + c * cmd[..., 1], cmd[..., 2]], -1)
+        world = np.concatenate([rotate(cmd[..., :2], yaw), cmd[..., 2:3]], -1)
         ctrl[:, self.ctrl_idx] = world
 
     def place(self, qpos: np.ndarray, qvel: np.ndarray, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:

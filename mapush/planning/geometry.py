@@ -6,10 +6,23 @@ An obstacle is a row (cx, cy, yaw, sx, sy): centre, heading and full side length
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 PARKED = 1000.0
 """x (m) of parked obstacles, far outside any arena."""
+
+
+def rotate(vectors, angle, inverse: bool = False):
+    """Vectors (..., 2) turned counter-clockwise by `angle` rad (`inverse`: clockwise, into a frame at that
+    heading). `angle`'s shape is a prefix of the vectors' leading dims, or broadcasts against them; torch or numpy."""
+    lib = torch if isinstance(vectors, torch.Tensor) else np
+    angle = angle.reshape(tuple(angle.shape) + (1,) * (vectors.ndim - 1 - angle.ndim))
+    c, s = lib.cos(angle), lib.sin(angle)
+    if inverse:
+        s = -s
+    x, y = vectors[..., 0], vectors[..., 1]
+    return lib.stack([c * x - s * y, s * x + c * y], -1)
 
 
 def parked(n: int, count: int, size: float) -> torch.Tensor:
@@ -28,7 +41,6 @@ def present(obstacles):
 
 def corners(obstacles: torch.Tensor) -> torch.Tensor:
     """Footprint corners, counter-clockwise: (..., 5) -> (..., 4, 2)."""
-    c, s = torch.cos(obstacles[..., 2]), torch.sin(obstacles[..., 2])
     hx, hy = obstacles[..., 3] / 2, obstacles[..., 4] / 2
     local = torch.stack(
         [
@@ -39,9 +51,7 @@ def corners(obstacles: torch.Tensor) -> torch.Tensor:
         ],
         -2,
     )  # (..., 4, 2)
-    rot_x = c.unsqueeze(-1) * local[..., 0] - s.unsqueeze(-1) * local[..., 1]
-    rot_y = s.unsqueeze(-1) * local[..., 0] + c.unsqueeze(-1) * local[..., 1]
-    return torch.stack([rot_x, rot_y], -1) + obstacles[..., None, :2]
+    return rotate(local, obstacles[..., 2]) + obstacles[..., None, :2]
 
 
 def point_distance(points: torch.Tensor, obstacles: torch.Tensor) -> torch.Tensor:
@@ -55,9 +65,9 @@ def point_distance(points: torch.Tensor, obstacles: torch.Tensor) -> torch.Tenso
         (..., P, K).
     """
     rel = points.unsqueeze(-2) - obstacles[..., None, :, :2]  # (..., P, K, 2)
-    c, s = torch.cos(obstacles[..., 2]).unsqueeze(-2), torch.sin(obstacles[..., 2]).unsqueeze(-2)
-    local_x = (c * rel[..., 0] + s * rel[..., 1]).abs() - obstacles[..., 3].unsqueeze(-2) / 2
-    local_y = (-s * rel[..., 0] + c * rel[..., 1]).abs() - obstacles[..., 4].unsqueeze(-2) / 2
+    local = rotate(rel, obstacles[..., 2].unsqueeze(-2), inverse=True).abs()  # in each obstacle's frame
+    local_x = local[..., 0] - obstacles[..., 3].unsqueeze(-2) / 2
+    local_y = local[..., 1] - obstacles[..., 4].unsqueeze(-2) / 2
     return torch.linalg.vector_norm(torch.stack([local_x.clamp(min=0), local_y.clamp(min=0)], -1), dim=-1)
 
 
@@ -95,7 +105,4 @@ def rectangles(xy: torch.Tensor, yaw: torch.Tensor, length: float, width: float)
 
 def transform(points: torch.Tensor, xy: torch.Tensor, yaw: torch.Tensor) -> torch.Tensor:
     """Body-frame points (P, 2) placed at poses xy (..., 2), yaw (...): (..., P, 2)."""
-    c, s = torch.cos(yaw).unsqueeze(-1), torch.sin(yaw).unsqueeze(-1)
-    x = c * points[:, 0] - s * points[:, 1] + xy[..., :1]
-    y = s * points[:, 0] + c * points[:, 1] + xy[..., 1:]
-    return torch.stack([x, y], -1)
+    return rotate(points, yaw.unsqueeze(-1)) + xy.unsqueeze(-2)

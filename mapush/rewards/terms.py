@@ -9,6 +9,7 @@ from __future__ import annotations
 import torch
 
 from mapush.errors import BadInput
+from mapush.planning.geometry import rotate
 from mapush.planning.paths import distance_to_path
 
 
@@ -75,10 +76,7 @@ def hull_inward_normal(
     Returns:
         Shape: (E, A, 2).
     """
-    c, s = torch.cos(object_yaw)[:, None], torch.sin(object_yaw)[:, None]
-    rel = points - object_xy.unsqueeze(1)
-    # q = R(-yaw) (p - b): the points in the object frame
-    q = torch.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], -1)
+    q = rotate(points - object_xy.unsqueeze(1), object_yaw, inverse=True)  # R(-yaw) (p - b): in the object frame
     start, edge = hull, torch.roll(hull, -1, 0) - hull  # (V, 2)
     t = (((q.unsqueeze(2) - start) * edge).sum(-1) / (edge * edge).sum(-1)).clamp(0.0, 1.0)  # (E, A, V)
     closest = start + t.unsqueeze(-1) * edge  # (E, A, V, 2)
@@ -96,7 +94,7 @@ def hull_inward_normal(
     use_gap = (~inside) & (dist_k > 1e-6)
     n = torch.where(use_gap.unsqueeze(-1), gap_k / dist_k.clamp_min(1e-6).unsqueeze(-1), edge_normal)
     # back to the world frame: R(yaw) n
-    return torch.stack([c * n[..., 0] - s * n[..., 1], s * n[..., 0] + c * n[..., 1]], -1)
+    return rotate(n, object_yaw)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -25,7 +25,7 @@ def export_onnx(actor: torch.nn.Module, obs_dim: int, path: Path) -> Path:
     """
     path = Path(path)
     tmp = path.with_name(f"{path.name}.tmp")
-    with _quiet_exporter():
+    with _quiet_exporter(), _replacing(tmp, path):
         torch.onnx.export(
             actor.to("cpu").eval(),
             (torch.zeros(1, obs_dim),),
@@ -38,8 +38,27 @@ def export_onnx(actor: torch.nn.Module, obs_dim: int, path: Path) -> Path:
             opset_version=ONNX_OPSET,
             verbose=False,  # no progress lines on stdout, where `mapush train` prints its run dir
         )
-    os.replace(tmp, path)
     return path
+
+
+def export_torchscript(actor: torch.nn.Module, path: Path) -> Path:
+    """Write `actor` (an rsl-rl MLP's `.as_jit()`) to `path` as TorchScript, atomically: `policy.pt` marks a
+    finished run, so it never exists half-written."""
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.tmp")
+    with _replacing(tmp, path):
+        torch.jit.script(actor.to("cpu").eval()).save(str(tmp))
+    return path
+
+
+@contextlib.contextmanager
+def _replacing(tmp: Path, path: Path):
+    """Rename `tmp` onto `path` when the block that writes `tmp` succeeds; remove `tmp` when it fails."""
+    try:
+        yield
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager

@@ -14,7 +14,7 @@ from rsl_rl.runners import OnPolicyRunner
 from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
 from mapush.logging.metrics import IterationLogger, McapLogWriter
-from mapush.rl.export import export_onnx
+from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.retention import SCORE_KEY, SUCCESS_TAG, Retention
 
@@ -114,10 +114,11 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
             f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
             f"{obs_dim}-d; valid: the task and agent count it was trained with{hint}"
         )
-    # A shipped policy's checkpoint keeps the actor alone (tools/ship_go1_policy.py): load what is there.
+    # A shipped policy's checkpoint keeps the actor alone (`mapush ship`): load what is there.
     parts = {"actor": True, "iteration": True, "rnd": "rnd_state_dict" in data}
     parts |= {"critic": "critic_state_dict" in data, "optimizer": "optimizer_state_dict" in data}
-    runner.load(str(path), load_cfg=parts, map_location=runner.device)
+    if runner.alg.load(data, parts, True):  # the dict read weights-only above; rsl-rl's runner.load unpickles
+        runner.current_learning_iteration = int(data["iter"])
     return int(data["iter"])
 
 
@@ -137,7 +138,6 @@ def learn(runner: MapushRunner, iterations: int, log_path: Path, spread_episodes
 def export_policy(runner: OnPolicyRunner, run_dir: Path) -> Path:
     """Export the deterministic actor (with its observation normalizer) to ONNX, then to TorchScript: `policy.pt`
     marks a finished run, so it comes last."""
-    actor = runner.alg.get_policy().as_onnx(verbose=False)
-    export_onnx(actor, actor.input_size, Path(run_dir) / ONNX_FILE)
-    runner.export_policy_to_jit(str(run_dir), POLICY_FILE)
-    return Path(run_dir) / POLICY_FILE
+    policy = runner.alg.get_policy()
+    export_onnx(policy.as_onnx(verbose=False), policy.obs_dim, Path(run_dir) / ONNX_FILE)
+    return export_torchscript(policy.as_jit(), Path(run_dir) / POLICY_FILE)
