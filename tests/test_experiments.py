@@ -25,6 +25,7 @@ def _results(root: Path) -> dict[str, dict]:
     return {p.parent.name: json.loads(p.read_text()) for p in root.glob(f"**/{RESULT}")}
 
 
+@pytest.mark.slow
 def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cli, tmp_path):
     methods = group_options("method")
     proc = _sweep(cli, tmp_path, "experiment=main", f"method={','.join(methods)}", "task=cuboid")
@@ -55,6 +56,7 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
     assert "name: high_nav" in hl_ft and "occlusion_based" in hl_ft  # plus the heuristic terms
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("launcher", ["local", "submitit_local"])
 def test_a_2_job_sweep_runs_on_the_launcher_and_lists_its_results(cli, tmp_path, launcher):
     proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", f"launcher={launcher}")
@@ -70,6 +72,7 @@ def test_a_2_job_sweep_runs_on_the_launcher_and_lists_its_results(cli, tmp_path,
         assert list((tmp_path / "sweeps").glob("*/.submitit"))
 
 
+@pytest.mark.slow
 def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
     three = "experiment.budgets.smoke.stages.mid.env_steps=96"  # 3 iterations of 4 envs x 8 steps
     assert _sweep(cli, tmp_path, "experiment=ocb_ablation", three).returncode == 0

@@ -402,6 +402,7 @@ def test_sigterm_leaves_complete_logs_and_the_run_resumes(cli, tmp_path):
     assert summary(run_dir / "train_episodes.mcap")["complete"]
 
 
+@pytest.mark.slow
 def test_a_sigkilled_run_resumes_with_its_logs_repaired(cli, tmp_path):
     proc, run_dir = _start_training(tmp_path, iterations=30, checkpoints=5)
     proc.send_signal(signal.SIGKILL)

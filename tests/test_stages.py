@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from mapush.config import compose_config
 from mapush.experiments.pipeline import RESULT, planned_stages
 from mapush.rundir import find_runs
@@ -49,6 +51,7 @@ def _sweep(cli, root, *args):
     return cli(*args, *SMOKE, f"sweep_root={root}")
 
 
+@pytest.mark.slow
 def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_says_so(cli, tmp_path, snapshot):
     root = tmp_path / "sweeps"
     plan = _sweep(cli, root, "sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder")
