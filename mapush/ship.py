@@ -56,6 +56,7 @@ def ship(run_dir: Path, out: Path, episodes: int, seeds: list[int]) -> Path:
     shutil.rmtree(out, ignore_errors=True)
     os.replace(tmp, out)
     shipped = out / next(reversed(sources))  # the evaluated policy: the run itself, or the high level over its mid
+    shipped = Path(os.path.relpath(shipped))  # eval.json names the checkpoint without this machine's absolute path
     return evaluate(shipped, episodes, seeds, ["log.eval_episodes=0"], out_dir=shipped)  # no episodes.mcap
 
 

@@ -69,3 +69,17 @@ def test_a_shipped_hierarchy_with_another_agent_count_is_refused(cli, name):
     proc = cli("eval", f"shipped:{name}", "task.num_agents=5")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert "agents" in proc.stderr and "valid:" in proc.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [n for n in shipped_names() if n != "go1" and not n.endswith("/mid")])
+def test_a_shipped_hierarchy_reproduces_its_recorded_evaluation(cli, name, tmp_path):
+    """`mapush eval shipped:NAME` on seed 0 gives what `mapush ship` recorded for seed 0 (evaluation is seeded)."""
+    recorded = json.loads((shipped_run(name) / "eval.json").read_text())
+    first = recorded["per_seed"][0]
+    proc = cli("eval", f"shipped:{name}", "--episodes", str(recorded["episodes"]), "--seeds", str(first["seed"]))
+    assert proc.returncode == 0, proc.stderr
+    out = tmp_path / "runs" / "shipped" / shipped_run(name).relative_to(PACKAGE) / "eval.json"
+    again = json.loads(out.read_text())["per_seed"][0]
+    assert again["success_rate"] == first["success_rate"]
+    assert again["completion_time"] == pytest.approx(first["completion_time"], abs=1e-9)

@@ -89,3 +89,27 @@ def test_tables_can_write_one_table_and_refuse_an_unknown_one(cli, tmp_path, cur
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "other", "--table", "table9")
     assert proc.returncode == 2 and "'table9'" in proc.stderr and "valid: main, ocb_ablation, scale" in proc.stderr
     assert not (tmp_path / "other").exists()
+
+
+def test_the_main_tables_findings_from_hand_made_results():
+    from mapush.report.tables import PAPER, _main_findings
+
+    def job(method, seed, evals):
+        ev = {k: {"success_rate": sr, "completion_time": ct} for k, (sr, ct) in evals.items()}
+        return {"method": method, "task": "cuboid", "seed": seed, "evals": ev, "job_dir": f"{method}{seed}"}
+
+    results = [
+        job("ours", 0, {"main": (0.80, 0.50), "path_only": (0.90, 0.45), "go1": (0.75, 0.6)}),
+        job("ours", 1, {"main": (0.70, 0.60), "path_only": (0.70, 0.60), "go1": (0.55, 0.7)}),
+        job("sa", 0, {"main": (0.10, 0.90)}),
+        job("ml", 0, {"main": (0.80, 0.90)}),
+    ]
+    lines = _main_findings(results, PAPER["main"], "cuboid")
+    # Ours: S.R. (80 + 70) / 2 = 75.0 < 77.5; C.T. (0.5 + 0.6) / 2 = 0.55 <= 0.66
+    assert lines[0] == (
+        "Cuboid: Ours S.R. 75.0 % vs the paper's 77.5 % (does not hold: below), C.T. 0.55 vs 0.66 (holds: at or below)"
+    )
+    assert lines[1] == "Cuboid: baselines below Ours: SA; at or above: M+L"
+    assert lines[2] == "Cuboid: the learned high level does not beat path following (-5.0 points of S.R.)"  # 75 - 80
+    assert lines[3] == "Cuboid: on legged Go1s Ours loses 10.0 points of S.R., within 10 points"  # 75 - 65
+    assert _main_findings(results, PAPER["main"], "tblock") == []

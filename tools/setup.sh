@@ -3,6 +3,7 @@
 # Needs only Python >= 3.11. Re-running it is cheap: pip skips what is installed.
 #   PYTHON=python3.12 bash tools/setup.sh      # choose the interpreter
 #   PIP_EXTRA="--extra-index-url URL" ...       # e.g. a CPU-only PyTorch index on machines without one locally
+#   EXTRAS=test,ray bash tools/setup.sh          # mapush's extras (default: test); ray: launcher=ray, ~350 MB, ~35 s
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -22,5 +23,5 @@ if [ ! -x .venv/bin/python ]; then
 fi
 # torch first and pinned: an unpinned torch makes pip pull several GB of CUDA packages on Linux.
 .venv/bin/python -m pip install -q ${PIP_EXTRA:-} "torch==2.13.0"
-.venv/bin/python -m pip install -q ${PIP_EXTRA:-} -e ".[test]"
+.venv/bin/python -m pip install -q ${PIP_EXTRA:-} -e ".[${EXTRAS:-test}]"
 .venv/bin/python -c "import mujoco, rsl_rl, hydra, ompl, mcap, torch; print('mapush setup ok: torch', torch.__version__, '| mujoco', mujoco.__version__)"

@@ -84,6 +84,8 @@ def main_table(results: list[dict], variant: str) -> Table:
         paper["task_labels"][task]: {paper["labels"][m]: _matching(mine, method=m, task=task) for m in methods}
         for task in paper["tasks"]
     }
+    for task in paper["tasks"]:
+        findings += _main_findings(mine, paper, task)
     for task, lines in panels.items():
         findings += filter(None, (plots.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
     return Table(
@@ -100,6 +102,46 @@ def main_table(results: list[dict], variant: str) -> Table:
         findings,
         panels,
     )
+
+
+LEGGED_GAP = 10.0
+"""Points of S.R. the legged Ours row may lose against the tracker row (the tables issue's target)."""
+
+
+def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
+    """What holds on one object: Ours against the paper, the baselines, path following and the legged robots."""
+    sr = {m: _collect(mine, "success_rate", 100.0, method=m, task=task, eval="main").values for m in paper["methods"]}
+    ours = sr["ours"]
+    if not ours:
+        return []
+    mean, label = float(np.mean(ours)), paper["task_labels"][task]
+    ct = float(np.mean(_collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").values))
+    paper_sr, paper_ct = paper["success_rate"][task]["ours"][0], paper["completion_time"][task]["ours"][0]
+    lines = [
+        f"{label}: Ours S.R. {mean:.1f} % vs the paper's {paper_sr:.1f} % ("
+        + ("holds: at or above" if mean >= paper_sr else "does not hold: below")
+        + f"), C.T. {ct:.2f} vs {paper_ct:.2f} ("
+        + ("holds: at or below" if ct <= paper_ct else "does not hold: above")
+        + ")"
+    ]
+    beaten = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) >= mean]
+    below = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) < mean]
+    if beaten or below:
+        lines.append(
+            f"{label}: baselines below Ours: {', '.join(below) or 'none'}; at or above: {', '.join(beaten) or 'none'}"
+        )
+    for eval_name, what in (("path_only", "path following"), ("go1", "legged Go1s")):
+        other = _collect(mine, "success_rate", 100.0, method="ours", task=task, eval=eval_name).values
+        if not other:
+            continue
+        gap = mean - float(np.mean(other))
+        if eval_name == "path_only":
+            verdict = "adds to" if gap > 0 else "does not beat"
+            lines.append(f"{label}: the learned high level {verdict} path following ({gap:+.1f} points of S.R.)")
+        else:
+            verdict = "within" if gap <= LEGGED_GAP else "not within"
+            lines.append(f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points")
+    return lines
 
 
 def ocb_table(results: list[dict], variant: str) -> Table:
