@@ -23,7 +23,7 @@ SHIPPED_GO1 = PACKAGE / "lowlevel" / "pretrained" / "go1"
 
 def shipped_names() -> list[str]:
     """Names `shipped:NAME` accepts: `go1`, and `<task>` (its high level) or `<task>/mid` for each shipped task."""
-    tasks = sorted(p.parent.name for p in SHIPPED_POLICIES.glob("*/high/config.yaml"))
+    tasks = sorted(p.parents[1].name for p in SHIPPED_POLICIES.glob("*/high/config.yaml"))
     return ["go1", *tasks, *(f"{t}/mid" for t in tasks)]
 
 

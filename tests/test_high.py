@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 import torch
 
-from mapush.envs.high import HighPushEnv, high_obs_dim
+from mapush.envs.high import HighPushEnv
+from mapush.envs.observations import high_obs_dim
 from mapush.planning.geometry import point_distance
 from mapush.planning.paths import resample
 from mapush.planning.planner import PlanResult

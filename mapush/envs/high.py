@@ -1,19 +1,14 @@
 """The high-level env: a centralized policy picks the object's next subgoal; the frozen mid level pushes it there.
 
-One decision every `level.decision_steps` mid-level steps (0.5 s by default; the original decided every 20 ms).
-Each mid-level step is the mid env's step: the mid policy's commands -> physics -> state, with the subgoal the
-high level chose. Success is the object within `success_distance` of the final target, 10+ m away through
-obstacles. Exceptions (`EXCEPTIONS`: robots colliding, object or robot tilted, a robot or the object hitting an
-obstacle, a diverged simulation, and at evaluation a map the planner found no path through) are penalized in the
-decision they happen; those in `level.terminal_exceptions` also end the episode as a failure. By default contacts
-with obstacles and between robots are penalized but not terminal, as in the original's evaluation, whose
-high-level episodes ended only by success, timeout or NaN (paper-and-original.md 3.2).
+One decision every `level.decision_steps` mid-level steps (0.5 s; the original: 20 ms). Success: the object
+within `success_distance` of the final target, 10+ m away through obstacles. Exceptions (`EXCEPTIONS`) are
+penalized; those in `level.terminal_exceptions` also end the episode (by default not the contacts, as in the
+original's evaluation: paper-and-original.md 3.2).
 
-Frame of the observation (`high_observation`): the *target frame*, origin at the object's centre and x pointing
-from the object to the final target. Action: 2 numbers in [-1, 1]; the subgoal lies at distance
-d = d_min + (a1 + 1) / 2 (d_max - d_min) (1.5-3 m: the mid level's trained range) from the object, turned by
-a0 * `subgoal_max_turn` from the *path direction* (object -> the path point `path_direction_m` ahead of the path
-point nearest the object). a = (0, 0) follows the reference path at 2.25 m.
+The observation (`observations.high_observation`) is in the *target frame*: origin at the object, x toward the
+final target. Action: 2 numbers in [-1, 1]; the subgoal lies d = d_min + (a1 + 1) / 2 (d_max - d_min) (1.5-3 m,
+the mid level's trained range) from the object, turned by a0 * `subgoal_max_turn` from the *path direction*
+(object -> the path point `path_direction_m` ahead of its nearest one). a = (0, 0) follows the path at 2.25 m.
 """
 
 from __future__ import annotations
@@ -38,8 +33,8 @@ from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
 from mapush.logging.scene import SceneLayout
 from mapush.lowlevel import BACKENDS
-from mapush.planning.geometry import corners, point_distance, polygon_gap, rectangles, rotate, transform
-from mapush.planning.paths import nearest_index, random_curved_paths
+from mapush.planning.geometry import corners, near_gaps, rectangles, rotate, transform
+from mapush.planning.paths import nearest_index, path_spacing, random_curved_paths
 from mapush.rewards.manager import RewardManager
 from mapush.sim.core import BatchSim
 from mapush.sim.shapes import object_hull, object_radius
@@ -56,12 +51,7 @@ class HighPushEnv:
             evaluation; None draws the paper's random curved paths with obstacles beside them (training).
     """
 
-    EXCEPTIONS = (
-        *BASE_EXCEPTIONS,
-        "robot_hit_obstacle",
-        "object_hit_obstacle",
-        "planner_failure",
-    )
+    EXCEPTIONS = (*BASE_EXCEPTIONS, "robot_hit_obstacle", "object_hit_obstacle", "planner_failure")
     needs_mid = True
     """Whether the env drives the robots through a frozen mid level (`mid=RUN_DIR`)."""
 
@@ -194,7 +184,7 @@ class HighPushEnv:
         self.target_distance = torch.linalg.vector_norm(self.object_xy - self.target_xy, dim=-1)
         if self.num_obstacles:
             hull = transform(self.hull, self.object_xy, self.object_yaw)  # (E, H, 2)
-            self.object_obstacle_gap = _near_gaps(
+            self.object_obstacle_gap = near_gaps(
                 self.object_xy.unsqueeze(1),
                 self.object_radius,
                 hull.unsqueeze(1),
@@ -203,7 +193,7 @@ class HighPushEnv:
             )[:, 0]  # (E, K)
             boxes = rectangles(self.robot_xy, self.robot_yaw, *self.robot_size)  # (E, A, 4, 2)
             robot_radius = math.hypot(*self.robot_size) / 2
-            self.robot_obstacle_gap = _near_gaps(
+            self.robot_obstacle_gap = near_gaps(
                 self.robot_xy, robot_radius, boxes, self.obstacles, self.obstacle_corners
             )
         else:
@@ -223,7 +213,7 @@ class HighPushEnv:
     def path_points_ahead(self, distances: torch.Tensor) -> torch.Tensor:
         """Path points at the given arc lengths (L,) past the point nearest the object: (E, L, 2)."""
         points = self.path.shape[1]
-        spacing = _spacing(self.path)
+        spacing = path_spacing(self.path)
         idx = nearest_index(self.path, self.object_xy).unsqueeze(1)
         offset = torch.round(distances.unsqueeze(0) / spacing.unsqueeze(1).clamp(min=1e-3)).long()
         ahead = (idx + offset).clamp(max=points - 1)
@@ -241,7 +231,7 @@ class HighPushEnv:
 
     def observations(self) -> dict[str, torch.Tensor]:
         """`policy` and `critic`: (E, 1, d), the same centralized view (documented in `high_observation`)."""
-        obs = torch.nan_to_num(high_observation(self), 0.0, 0.0, 0.0).unsqueeze(1)
+        obs = torch.nan_to_num(obs_terms.high_observation(self), 0.0, 0.0, 0.0).unsqueeze(1)
         return {"policy": obs, "critic": obs}
 
     # ----------------------------------------------------------------------------------------------------------
@@ -354,90 +344,3 @@ class HighPushEnv:
             "obstacles": self.obstacle_corners,
             "path": self.path,
         }
-
-
-NEAR_M = 0.5
-"""Pairs whose bounding discs are further apart than this skip the exact polygon test."""
-
-
-def _near_gaps(
-    centres: torch.Tensor, radius: float, shapes: torch.Tensor, obstacles: torch.Tensor, obstacle_corners: torch.Tensor
-) -> torch.Tensor:
-    """Gaps (E, N, K) between N convex shapes per env and each obstacle: exact (separating axes) for pairs whose
-    bounding discs come within `NEAR_M`, the bounding-disc gap (a lower bound, > NEAR_M) for the rest.
-
-    Args:
-        centres: (E, N, 2) centres of the shapes' bounding discs of `radius`; shapes: (E, N, V, 2) vertices.
-        obstacles: (E, K, 5) rows; obstacle_corners: (E, K, 4, 2).
-    """
-    obstacle_radius = torch.linalg.vector_norm(obstacles[..., 3:], dim=-1) / 2  # (E, K)
-    centre_gap = torch.linalg.vector_norm(centres.unsqueeze(2) - obstacles[:, None, :, :2], dim=-1)
-    gaps = centre_gap - radius - obstacle_radius.unsqueeze(1)  # (E, N, K)
-    near = (gaps < NEAR_M).nonzero(as_tuple=True)
-    if len(near[0]):
-        e, n, k = near
-        gaps[near] = polygon_gap(shapes[e, n], obstacle_corners[e, k])
-    return gaps
-
-
-def _spacing(path: torch.Tensor) -> torch.Tensor:
-    """Distance between consecutive points of evenly resampled paths (E, P, 2): (E,)."""
-    return torch.linalg.vector_norm(path[:, 1] - path[:, 0], dim=-1)
-
-
-def target_heading(env: HighPushEnv) -> torch.Tensor:
-    """Direction from the object to the final target, rad (E,): the x axis of the target frame."""
-    to_target = env.target_xy - env.object_xy
-    return torch.atan2(to_target[:, 1], to_target[:, 0])
-
-
-def high_observation(env: HighPushEnv) -> torch.Tensor:
-    """The centralized high-level view in the target frame (origin at the object, x toward the final target).
-
-    Layout (width 8 + 4 A + 2 L + 3 M, L = len(observe.path_ahead_m), M = observe.obstacles):
-        target distance (1) | object yaw (cos, sin) (2) | object velocity vx, vy (2) | current subgoal xy (2) |
-        robots' xy (2 A) | robots' yaw (cos, sin) (2 A) | path points ahead xy (2 L) |
-        nearest obstacles: centre xy and footprint distance to the object centre (3 M), nearest first |
-        episode time fraction (1)
-    """
-    observe = env.cfg["level"]["observe"]
-    heading = target_heading(env)
-
-    def frame(points: torch.Tensor) -> torch.Tensor:  # (E, ..., 2) world -> target frame
-        return rotate(points - env.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2), -heading)
-
-    vel_frame = rotate(env.object_vel[:, :2], -heading)
-    ahead = env.path_points_ahead(torch.tensor(observe["path_ahead_m"], dtype=torch.float32))
-    parts = [
-        env.target_distance.unsqueeze(-1),
-        obs_terms.angle_features(env.object_yaw - heading),
-        vel_frame,
-        frame(env.subgoal_xy.unsqueeze(1)).flatten(1),
-        frame(env.robot_xy).flatten(1),
-        obs_terms.angle_features(env.robot_yaw - heading.unsqueeze(1)).flatten(1),
-        frame(ahead).flatten(1),
-    ]
-    m = observe["obstacles"]
-    if m:
-        if env.num_obstacles:
-            dist = point_distance(env.object_xy.unsqueeze(1), env.obstacles).squeeze(1)  # (E, K)
-            order = dist.argsort(-1)[:, :m]
-            centres = env.obstacles[..., :2].gather(1, order.unsqueeze(-1).expand(-1, -1, 2))
-            near = torch.cat(
-                [frame(centres).clamp(-20.0, 20.0), dist.gather(1, order).clamp(max=20.0).unsqueeze(-1)], -1
-            )
-        else:
-            near = torch.zeros(env.num_envs, 0, 3)
-        if near.shape[1] < m:  # fewer obstacles than observed slots: far away, straight behind
-            pad = torch.zeros(env.num_envs, m - near.shape[1], 3)
-            pad[..., 0], pad[..., 2] = -20.0, 20.0
-            near = torch.cat([near, pad], 1)
-        parts.append(near.flatten(1))
-    parts.append((env.episode_step.float() / env.max_episode_length).unsqueeze(-1))
-    return torch.cat(parts, -1)
-
-
-def high_obs_dim(cfg: dict) -> int:
-    """Width of `high_observation` for a config."""
-    observe = cfg["level"]["observe"]
-    return 8 + 4 * cfg["task"]["num_agents"] + 2 * len(observe["path_ahead_m"]) + 3 * observe["obstacles"]

@@ -23,7 +23,8 @@ import numpy as np
 import torch
 
 from mapush.envs import observations as obs_terms
-from mapush.envs.high import HighPushEnv, high_obs_dim, high_observation, target_heading
+from mapush.envs.high import HighPushEnv
+from mapush.envs.observations import high_obs_dim, high_observation, target_heading
 from mapush.lowlevel.goto import go_to_point
 from mapush.planning.geometry import rotate
 

@@ -1,4 +1,4 @@
-"""Mid-level observations: each robot's local view (actor) and the global state (critic).
+"""Observations: the mid level's local view (actor) and global state (critic), the high level's centralized view.
 
 Angles are encoded as (cos, sin) pairs, so the policy never sees the 2 pi jump of a wrapped angle.
 """
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import torch
 
-from mapush.planning.geometry import rotate
+from mapush.planning.geometry import point_distance, rotate
 
 
 def to_agent_frame(points: torch.Tensor, robot_xy: torch.Tensor, robot_yaw: torch.Tensor) -> torch.Tensor:
@@ -86,3 +86,61 @@ def global_observation(env) -> torch.Tensor:
         -1,
     )
     return torch.cat([state.unsqueeze(1).expand(E, A, -1), env.agent_one_hot.expand(E, A, A)], -1)
+
+
+def target_heading(env) -> torch.Tensor:
+    """Direction from the object to the final target, rad (E,): the x axis of the target frame."""
+    to_target = env.target_xy - env.object_xy
+    return torch.atan2(to_target[:, 1], to_target[:, 0])
+
+
+def high_observation(env) -> torch.Tensor:
+    """The centralized high-level view in the target frame (origin at the object, x toward the final target).
+
+    Layout (width 8 + 4 A + 2 L + 3 M, L = len(observe.path_ahead_m), M = observe.obstacles):
+        target distance (1) | object yaw (cos, sin) (2) | object velocity vx, vy (2) | current subgoal xy (2) |
+        robots' xy (2 A) | robots' yaw (cos, sin) (2 A) | path points ahead xy (2 L) |
+        nearest obstacles: centre xy and footprint distance to the object centre (3 M), nearest first |
+        episode time fraction (1)
+    """
+    observe = env.cfg["level"]["observe"]
+    heading = target_heading(env)
+
+    def frame(points: torch.Tensor) -> torch.Tensor:  # (E, ..., 2) world -> target frame
+        return rotate(points - env.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2), -heading)
+
+    vel_frame = rotate(env.object_vel[:, :2], -heading)
+    ahead = env.path_points_ahead(torch.tensor(observe["path_ahead_m"], dtype=torch.float32))
+    parts = [
+        env.target_distance.unsqueeze(-1),
+        angle_features(env.object_yaw - heading),
+        vel_frame,
+        frame(env.subgoal_xy.unsqueeze(1)).flatten(1),
+        frame(env.robot_xy).flatten(1),
+        angle_features(env.robot_yaw - heading.unsqueeze(1)).flatten(1),
+        frame(ahead).flatten(1),
+    ]
+    m = observe["obstacles"]
+    if m:
+        if env.num_obstacles:
+            dist = point_distance(env.object_xy.unsqueeze(1), env.obstacles).squeeze(1)  # (E, K)
+            order = dist.argsort(-1)[:, :m]
+            centres = env.obstacles[..., :2].gather(1, order.unsqueeze(-1).expand(-1, -1, 2))
+            near = torch.cat(
+                [frame(centres).clamp(-20.0, 20.0), dist.gather(1, order).clamp(max=20.0).unsqueeze(-1)], -1
+            )
+        else:
+            near = torch.zeros(env.num_envs, 0, 3)
+        if near.shape[1] < m:  # fewer obstacles than observed slots: far away, straight behind
+            pad = torch.zeros(env.num_envs, m - near.shape[1], 3)
+            pad[..., 0], pad[..., 2] = -20.0, 20.0
+            near = torch.cat([near, pad], 1)
+        parts.append(near.flatten(1))
+    parts.append((env.episode_step.float() / env.max_episode_length).unsqueeze(-1))
+    return torch.cat(parts, -1)
+
+
+def high_obs_dim(cfg: dict) -> int:
+    """Width of `high_observation` for a config."""
+    observe = cfg["level"]["observe"]
+    return 8 + 4 * cfg["task"]["num_agents"] + 2 * len(observe["path_ahead_m"]) + 3 * observe["obstacles"]

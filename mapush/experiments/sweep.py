@@ -55,11 +55,21 @@ def job(cfg: DictConfig) -> str:
 
 
 def job_threads(cfg: DictConfig) -> int:
-    """Threads of one job: `job_threads`, or the cores shared among the local launcher's concurrent jobs."""
+    """Threads of one job: `job_threads`, or the cores it was given shared among the local launcher's concurrent
+    jobs (a SLURM or Ray job gets its allocation, not the node's every core)."""
     if int(cfg.job_threads) > 0:
         return int(cfg.job_threads)
     concurrent = int(HydraConfig.get().launcher.get("n_jobs") or 1)  # joblib's cap; others: one job per process
-    return max(1, (os.cpu_count() or 1) // concurrent)
+    return max(1, available_cores() // concurrent)
+
+
+def available_cores() -> int:
+    """The cores this process may use: SLURM's allocation, else the CPU affinity (containers, Ray), else all."""
+    if os.environ.get("SLURM_CPUS_PER_TASK", "").isdigit():
+        return int(os.environ["SLURM_CPUS_PER_TASK"])
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def sweep_overrides(overrides: list[str]) -> list[str]:

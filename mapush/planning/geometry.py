@@ -106,3 +106,27 @@ def rectangles(xy: torch.Tensor, yaw: torch.Tensor, length: float, width: float)
 def transform(points: torch.Tensor, xy: torch.Tensor, yaw: torch.Tensor) -> torch.Tensor:
     """Body-frame points (P, 2) placed at poses xy (..., 2), yaw (...): (..., P, 2)."""
     return rotate(points, yaw.unsqueeze(-1)) + xy.unsqueeze(-2)
+
+
+NEAR_M = 0.5
+"""Pairs whose bounding discs are further apart than this skip the exact polygon test."""
+
+
+def near_gaps(
+    centres: torch.Tensor, radius: float, shapes: torch.Tensor, obstacles: torch.Tensor, obstacle_corners: torch.Tensor
+) -> torch.Tensor:
+    """Gaps (E, N, K) between N convex shapes per env and each obstacle: exact (separating axes) for pairs whose
+    bounding discs come within `NEAR_M`, the bounding-disc gap (a lower bound, > NEAR_M) for the rest.
+
+    Args:
+        centres: (E, N, 2) centres of the shapes' bounding discs of `radius`; shapes: (E, N, V, 2) vertices.
+        obstacles: (E, K, 5) rows; obstacle_corners: (E, K, 4, 2).
+    """
+    obstacle_radius = torch.linalg.vector_norm(obstacles[..., 3:], dim=-1) / 2  # (E, K)
+    centre_gap = torch.linalg.vector_norm(centres.unsqueeze(2) - obstacles[:, None, :, :2], dim=-1)
+    gaps = centre_gap - radius - obstacle_radius.unsqueeze(1)  # (E, N, K)
+    near = (gaps < NEAR_M).nonzero(as_tuple=True)
+    if len(near[0]):
+        e, n, k = near
+        gaps[near] = polygon_gap(shapes[e, n], obstacle_corners[e, k])
+    return gaps

@@ -87,3 +87,8 @@ def distance_to_path(path: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
 def length(path: torch.Tensor) -> torch.Tensor:
     """Arc length of polylines (..., P, 2): (...)."""
     return torch.linalg.vector_norm(path[..., 1:, :] - path[..., :-1, :], dim=-1).sum(-1)
+
+
+def path_spacing(path: torch.Tensor) -> torch.Tensor:
+    """Distance between consecutive points of evenly resampled paths (E, P, 2): (E,)."""
+    return torch.linalg.vector_norm(path[:, 1] - path[:, 0], dim=-1)
