@@ -51,9 +51,9 @@ def make_env():
     return make
 
 
-def _run_cli(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+def _run_cli(args: list[str], cwd: Path, timeout: float = 240) -> subprocess.CompletedProcess:
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    return subprocess.run([*MAPUSH, *map(str, args)], cwd=cwd, env=env, capture_output=True, text=True, timeout=240)
+    return subprocess.run([*MAPUSH, *map(str, args)], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
 
 
 @pytest.fixture(scope="session")

@@ -25,7 +25,10 @@ SMOKE_SWEEP = ["experiment=ocb_ablation", "budget=smoke", "debug=smoke", "seed=0
 
 
 def _sweep(cli, tmp_path: Path, *args: str):
-    return cli("sweep", *SMOKE_SWEEP, f"sweep_root={tmp_path / 'sweeps'}", *args)
+    """The smoke sweep through the real CLI; a cluster starts its workers first, slowly on a busy machine."""
+    from conftest import _run_cli
+
+    return _run_cli(["sweep", *SMOKE_SWEEP, f"sweep_root={tmp_path / 'sweeps'}", *args], cwd=tmp_path, timeout=900)
 
 
 def _check_both_jobs_finished(proc, sweeps: Path) -> None:
