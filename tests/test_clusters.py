@@ -93,6 +93,7 @@ def test_a_2_job_smoke_sweep_runs_as_ray_tasks_on_a_local_ray_cluster(cli, tmp_p
     # Ray starts its local cluster under RAY_TMPDIR: a short path, as its unix sockets' paths must fit 107 bytes.
     ray_tmp = Path(tempfile.mkdtemp(prefix="mapush-ray-"))
     monkeypatch.setenv("RAY_TMPDIR", str(ray_tmp))
+    monkeypatch.setenv("RAY_worker_niceness", "0")  # its raylet nices workers by default: starved on a busy machine
     try:
         proc = _sweep(cli, tmp_path, "launcher=ray")
         _check_both_jobs_finished(proc, tmp_path / "sweeps")
