@@ -120,6 +120,19 @@ def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid
     assert reward[0, 0] < reward[1, 0]  # the -0.5 exception penalty (and obstacle proximity)
 
 
+def test_an_exception_named_terminal_ends_its_episode_and_only_its_own(high_cfg, mid):
+    high_cfg["level"]["terminal_exceptions"] = ["robot_hit_obstacle"]
+    env = HighPushEnv(high_cfg, mid, num_envs=2)
+    obstacles = env.obstacles.clone()
+    obstacles[0, 0, :2] = env.robot_xy[0, 0]  # an obstacle right on robot 0 of env 0
+    obstacles[0, 0, 2] = 0.0
+    env.set_obstacles(torch.arange(2).numpy(), obstacles)
+    _, _, terminated, truncated, info = env.step(torch.zeros(2, 1, 2))
+    assert terminated.tolist() == [True, False] and not truncated.any()
+    end = info["episode_end"]
+    assert end["exception"].tolist() == [True, False] and not end["success"].any()
+
+
 def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_path):
     proc = cli("train", "level=high", f"mid={smoke_run}", "debug=smoke", f"train.run_root={tmp_path}")
     assert proc.returncode == 0, proc.stderr
