@@ -108,12 +108,16 @@ def test_training_plans_its_paths_on_evaluation_maps_when_asked(high_cfg, evalua
     assert (gap >= object_radius(high_cfg["task"]["object"]) - 1e-3).all()
 
 
-def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid):
-    env = HighPushEnv(high_cfg, mid, num_envs=2)
+def _obstacle_on_robot_0_of_env_0(env) -> None:
     obstacles = env.obstacles.clone()
-    obstacles[0, 0, :2] = env.robot_xy[0, 0]  # an obstacle right on robot 0 of env 0
+    obstacles[0, 0, :2] = env.robot_xy[0, 0]
     obstacles[0, 0, 2] = 0.0
     env.set_obstacles(torch.arange(2).numpy(), obstacles)
+
+
+def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid):
+    env = HighPushEnv(high_cfg, mid, num_envs=2)
+    _obstacle_on_robot_0_of_env_0(env)
     _, reward, terminated, _, _ = env.step(torch.zeros(2, 1, 2))
     assert env.exception.tolist() == [True, False]
     assert not terminated[0]
@@ -123,10 +127,7 @@ def test_obstacle_contact_is_penalized_but_not_terminal_by_default(high_cfg, mid
 def test_an_exception_named_terminal_ends_its_episode_and_only_its_own(high_cfg, mid):
     high_cfg["level"]["terminal_exceptions"] = ["robot_hit_obstacle"]
     env = HighPushEnv(high_cfg, mid, num_envs=2)
-    obstacles = env.obstacles.clone()
-    obstacles[0, 0, :2] = env.robot_xy[0, 0]  # an obstacle right on robot 0 of env 0
-    obstacles[0, 0, 2] = 0.0
-    env.set_obstacles(torch.arange(2).numpy(), obstacles)
+    _obstacle_on_robot_0_of_env_0(env)
     _, _, terminated, truncated, info = env.step(torch.zeros(2, 1, 2))
     assert terminated.tolist() == [True, False] and not truncated.any()
     end = info["episode_end"]
