@@ -20,7 +20,7 @@ from mapush.envs.nav_high import NavHighPushEnv
 from mapush.errors import BadInput
 from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
-from mapush.rl.runner import MapushRunner, seed_everything, train_cfg_for
+from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
 from mapush.schema import check_config
 
@@ -95,3 +95,11 @@ def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bo
         )
     runner.add_git_repo_to_log(__file__)  # the commit of mapush's checkout, if any
     return env, runner
+
+
+def build_for_eval(cfg: dict, checkpoint: Path):
+    """The env, rsl-rl's vec env over it and the checkpoint's deterministic policy, as `mapush eval` and
+    `mapush play` run them; BadInput when the checkpoint does not fit the config."""
+    env, runner = build(cfg, None, 0, evaluation=True)
+    load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
+    return env, runner.env, runner.get_inference_policy()

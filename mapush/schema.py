@@ -37,6 +37,10 @@ def _fraction(low_open: bool = False) -> Rule:
     )
 
 
+def _even_pixels() -> Rule:
+    return int, lambda v: v >= 16 and v % 2 == 0, "an even integer >= 16 (px; yuv420p halves the chroma)"
+
+
 RULES: dict[str, Rule] = {
     "seed": _count(0),
     "num_envs": _count(1),
@@ -67,6 +71,16 @@ RULES: dict[str, Rule] = {
     "algo.algorithm.desired_kl": _positive("KL divergence"),
     "eval.episodes": _count(1),
     "eval.seeds": _count(0),
+    "log.video_interval": (int, lambda v: v >= 0, "an integer >= 0 (iterations; 0 = no training videos)"),
+    "log.video.width": (int, lambda v: v >= 16 and v % 2 == 0, "an even integer >= 16 (px; yuv420p halves the chroma)"),
+    "log.video.height": (
+        int,
+        lambda v: v >= 16 and v % 2 == 0,
+        "an even integer >= 16 (px; yuv420p halves the chroma)",
+    ),
+    "log.video.episodes": _count(1),
+    "log.video.max_frames": _count(1),
+    "log.video.crf": (int, lambda v: 0 <= v <= 51, "an integer in [0, 51] (H.264 quality, lower is better)"),
 }
 """Every checked value: key -> (type, test, what is valid); for a list, of each item."""
 

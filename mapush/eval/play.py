@@ -14,8 +14,7 @@ from pathlib import Path
 import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
-from mapush.levels import build
-from mapush.rl.runner import load_checkpoint, obs_width
+from mapush.levels import build_for_eval
 from mapush.rundir import resolve_checkpoint
 from mapush.viz.scene import EnvView
 
@@ -55,9 +54,7 @@ def play(target: Path, overrides: list[str], seed: int) -> None:
 
     run_dir, checkpoint = resolve_checkpoint(target)
     cfg = {**to_plain(apply_overrides(load_run_config(run_dir), overrides)), "seed": seed, "num_envs": 1}
-    env, runner = build(cfg, None, 0, evaluation=True)
-    load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
-    policy, vec = runner.get_inference_policy(), runner.env
+    env, vec, policy = build_for_eval(cfg, checkpoint)
     view = EnvView(env, cfg)
     view.load(env, 0)
     with mujoco.viewer.launch_passive(view.model, view.data) as viewer:

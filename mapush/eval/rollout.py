@@ -17,11 +17,10 @@ import numpy as np
 import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
-from mapush.levels import build, env_class
+from mapush.levels import build_for_eval, env_class
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.rewards.manager import RewardManager
-from mapush.rl.runner import load_checkpoint, obs_width
 from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
 
@@ -34,13 +33,12 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
     `recorders` (EpisodeRecorder, LiveView) watch the first envs' episodes.
     """
     cfg = {**cfg, "seed": seed, "num_envs": episodes}
-    env, runner = build(cfg, None, 0, evaluation=True)
+    env, vec, policy = build_for_eval(cfg, checkpoint)
     watched = list(range(max(min(int(cfg["log"]["eval_episodes"]), episodes), 1)))  # the live view follows env 0
     for recorder in recorders:
         recorder.watch(watched, env.frame_dt, f"seed {seed}", from_start=True)
         env.recorders.append(recorder)
-    load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
-    return first_episodes(env, runner.env, runner.get_inference_policy(), seed)
+    return first_episodes(env, vec, policy, seed)
 
 
 def first_episodes(env, vec, policy, seed: int) -> dict:

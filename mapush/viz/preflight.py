@@ -15,6 +15,7 @@ import subprocess
 import sys
 
 from mapush.errors import BadInput
+from mapush.schema import check_config
 
 HEADLESS_BACKENDS = ("egl", "osmesa")
 """Tried in this order when MUJOCO_GL is unset: Mesa's EGL (llvmpipe on a CPU, the GPU's driver where one is), then
@@ -109,24 +110,10 @@ def require_display() -> None:
         )
 
 
-VIDEO_RULES = {  # key under `log` -> (test of an integer, what is valid)
-    "video_interval": (lambda v: v >= 0, "an integer >= 0 (iterations; 0 = no training videos)"),
-    "video.width": (lambda v: v >= 16 and v % 2 == 0, "an even integer >= 16 (px; yuv420p halves the chroma)"),
-    "video.height": (lambda v: v >= 16 and v % 2 == 0, "an even integer >= 16 (px; yuv420p halves the chroma)"),
-    "video.episodes": (lambda v: v >= 1, "an integer >= 1"),
-    "video.max_frames": (lambda v: v >= 1, "an integer >= 1"),
-    "video.crf": (lambda v: 0 <= v <= 51, "an integer in [0, 51] (H.264 quality, lower is better)"),
-}
-
-
 def check_video_config(cfg: dict) -> None:
-    """BadInput for a video setting out of range: `log.video_interval` and the `log.video` block (`VIDEO_RULES`)."""
-    for key, (test, valid) in VIDEO_RULES.items():
-        value = cfg["log"]
-        for part in key.split("."):
-            value = value[part]
-        if not isinstance(value, int) or isinstance(value, bool) or not test(value):
-            raise BadInput(f"log.{key}={value!r} is not valid; valid: {valid}")
+    """BadInput for a video setting out of range: `log.video_interval` and the `log.video` block, by the config's
+    one rule table (`mapush.schema.RULES`)."""
+    check_config({"log": cfg["log"]})
 
 
 def prepare_training_video(cfg) -> None:
