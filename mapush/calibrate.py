@@ -26,7 +26,7 @@ import torch
 from mapush.config import CONF_DIR, compose_config, to_plain
 from mapush.lowlevel import BACKENDS
 from mapush.planning.geometry import rotate
-from mapush.sim.core import BatchSim
+from mapush.sim.push import PushSim
 
 LAG_GRID = np.geomspace(0.02, 1.0, 60)
 """Candidate lags, s: the physical bounds of a velocity loop of a 12 kg robot."""
@@ -55,7 +55,7 @@ def run_steps(
     and object planar speed (E, T) at every policy step of the hold. `configure(sim)` may edit per-env model
     values first."""
     backend = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
-    sim = BatchSim(cfg["sim"], cfg["task"], backend, len(commands))
+    sim = PushSim(cfg["sim"], cfg["task"], backend, len(commands))
     if configure is not None:
         configure(sim)
     ids = np.arange(len(commands))
@@ -68,11 +68,11 @@ def run_steps(
     for _ in range(round(duration_s / sim.dt)):
         sim.step(held)
         state = sim.read()
-        yaw = state["robot_yaw"][:, 0]
-        vel = state["robot_vel"][:, 0]
+        yaw = state.robot_yaw[:, 0]
+        vel = state.robot_vel[:, 0]
         body = torch.cat([rotate(vel[:, :2], yaw, inverse=True), vel[:, 2:3]], -1)
         robot_vel.append(body.numpy())
-        object_speed.append(torch.linalg.vector_norm(state["object_vel"][:, :2], dim=-1).numpy())
+        object_speed.append(torch.linalg.vector_norm(state.object_vel[:, :2], dim=-1).numpy())
     return {"robot_vel": np.stack(robot_vel, 1), "object_speed": np.stack(object_speed, 1), "dt": sim.dt}
 
 
@@ -105,7 +105,7 @@ def push_layout(n: int, cfg: dict) -> dict[str, torch.Tensor]:
     }
 
 
-def _force_limits(sim: BatchSim) -> None:
+def _force_limits(sim: PushSim) -> None:
     """Env k's tracker gets the force limit FORCE_GRID[k] on its x and y actuators."""
     limits = sim.batch.expand("actuator_forcerange")
     for axis in sim.lowlevel.ctrl_idx[0, :2]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 from omegaconf import DictConfig
@@ -24,22 +25,37 @@ from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_ever
 from mapush.rl.vecenv import AgentRowsVecEnv
 from mapush.schema import check_config
 
+
+@dataclass(frozen=True)
+class Level:
+    """A trainable level: its env class and what `make_env` must hand it besides the config."""
+
+    env: type
+    frozen_mid: bool = False  # drives the robots through a frozen mid level (`mid=RUN_DIR`)
+    planner: bool = False  # plans reference paths with OMPL (`level.path.plan_at_eval`, `plan_in_training`)
+
+
 LEVELS = {
-    "low": LocomotionEnv,
-    "mid": MidPushEnv,
-    "mid_long": LongMidPushEnv,
-    "high": HighPushEnv,
-    "high_nav": NavHighPushEnv,
+    "low": Level(LocomotionEnv),
+    "mid": Level(MidPushEnv),
+    "mid_long": Level(LongMidPushEnv),
+    "high": Level(HighPushEnv, frozen_mid=True, planner=True),
+    "high_nav": Level(NavHighPushEnv, planner=True),
 }
-"""The env class of each trainable level."""
+"""The trainable levels, by `level.name`."""
 
 
-def env_class(cfg: dict) -> type:
-    """The env class of a config's level; BadInput for a level that cannot be trained."""
+def level_of(cfg: dict) -> Level:
+    """The level of a config; BadInput for a level that cannot be trained."""
     name = cfg["level"]["name"]
     if name not in LEVELS:
         raise BadInput(f"level {name!r} cannot be trained yet; valid: {', '.join(LEVELS)}")
     return LEVELS[name]
+
+
+def env_class(cfg: dict) -> type:
+    """The env class of a config's level; BadInput for a level that cannot be trained."""
+    return level_of(cfg).env
 
 
 def checked(cfg: DictConfig) -> dict:
@@ -48,9 +64,9 @@ def checked(cfg: DictConfig) -> dict:
     finds it from anywhere). Returns it as a plain dict; BadInput for a mistake."""
     check_config(cfg)
     plain = to_plain(cfg)
-    cls = env_class(plain)
-    cls.validate(plain)
-    if getattr(cls, "needs_mid", False):
+    level = level_of(plain)
+    level.env.validate(plain)
+    if level.frozen_mid:
         if cfg.mid:
             cfg.mid = plain["mid"] = str(Path(cfg.mid).resolve())
         load_mid_policy(plain["mid"], plain["task"])
@@ -58,17 +74,15 @@ def checked(cfg: DictConfig) -> dict:
 
 
 def make_env(cfg: dict, evaluation: bool = False):
-    """The env of a config. The high levels load their frozen mid level (if they drive one) and an OMPL planner
-    where their paths are planned: at evaluation (`path.plan_at_eval`), in training with `path.plan_in_training`."""
-    cls = env_class(cfg)
-    if cls is LocomotionEnv:
-        return cls(cfg, evaluation=evaluation)
-    if not issubclass(cls, HighPushEnv):
-        return cls(cfg)
-    mid = load_mid_policy(cfg["mid"], cfg["task"]) if cls.needs_mid else None
-    path = cfg["level"]["path"]
-    planner = make_planner(cfg) if path["plan_at_eval" if evaluation else "plan_in_training"] else None
-    return cls(cfg, mid, planner=planner)
+    """The env of a config. A high level gets its frozen mid level (if it drives one) and an OMPL planner where its
+    paths are planned: at evaluation (`path.plan_at_eval`), in training with `path.plan_in_training`."""
+    level = level_of(cfg)
+    extra = {}
+    if level.frozen_mid:
+        extra["mid"] = load_mid_policy(cfg["mid"], cfg["task"])
+    if level.planner and cfg["level"]["path"]["plan_at_eval" if evaluation else "plan_in_training"]:
+        extra["planner"] = make_planner(cfg)
+    return level.env(cfg, evaluation=evaluation, **extra)
 
 
 def torch_threads(cfg: dict) -> tuple[int, int]:

@@ -85,7 +85,7 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
 
 def attach_episode_recorder(cfg: dict, env, path: Path, every_steps: int) -> EpisodeRecorder:
     """Record env 0's next whole episode after every `every_steps` env steps into `path` (training episodes)."""
-    recorder = EpisodeRecorder(path, env.scene_layout(cfg), list(env.rewards.terms), env.EXCEPTIONS)
+    recorder = EpisodeRecorder(path, env.scene_layout(cfg), list(env.rewards.terms), env.exception_names)
     recorder.watch([0], env.frame_dt, "training", from_start=False, every_steps=every_steps)
     env.recorders.append(recorder)
     return recorder

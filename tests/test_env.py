@@ -7,7 +7,6 @@ import math
 import pytest
 import torch
 
-from mapush.envs.mid import EXCEPTIONS
 from mapush.rewards import terms
 
 ZERO = torch.zeros(4, 2, 3)  # 4 envs x 2 agents, standing still
@@ -58,12 +57,12 @@ def test_commands_move_the_robots_at_the_scaled_speed(env):
     # in 20 steps (0.4 s) of full forward command (the median: a robot may bump into the object)
     lag = env.cfg["lowlevel"]["lag"]
     expected = 0.5 * (0.4 - lag * (1 - math.exp(-0.4 / lag)))
-    start = env.robot_xy.clone()
+    start = env.state.robot_xy.clone()
     actions = torch.zeros(4, 2, 3)
     actions[..., 0] = 1.0
     for _ in range(20):
         env.step(actions)
-    moved = torch.linalg.vector_norm(env.robot_xy - start, dim=-1)
+    moved = torch.linalg.vector_norm(env.state.robot_xy - start, dim=-1)
     assert moved.median().item() == pytest.approx(expected, abs=0.005)
 
 
@@ -72,12 +71,12 @@ def test_actions_are_clipped_to_one(make_env):
     for _ in range(5):
         fast.step(torch.full((2, 2, 3), 5.0))
         clipped.step(torch.full((2, 2, 3), 1.0))
-    assert torch.equal(fast.robot_xy, clipped.robot_xy)
+    assert torch.equal(fast.state.robot_xy, clipped.state.robot_xy)
 
 
 def test_auto_reset_restarts_only_the_env_that_finished(env):
     env.step(ZERO)
-    env.subgoal_xy[1] = env.object_xy[1]  # env 1 reaches its subgoal on the next step
+    env.subgoal_xy[1] = env.state.object_xy[1]  # env 1 reaches its subgoal on the next step
     _, _, terminated, truncated, info = env.step(ZERO)
     assert terminated.tolist() == [False, True, False, False]
     assert truncated.tolist() == [False, False, False, False]
@@ -87,10 +86,10 @@ def test_auto_reset_restarts_only_the_env_that_finished(env):
 
 def test_reset_draws_a_new_subgoal_for_the_finished_env(env):
     env.step(ZERO)
-    env.subgoal_xy[1] = env.object_xy[1]
+    env.subgoal_xy[1] = env.state.object_xy[1]
     others = env.subgoal_xy[[0, 2, 3]].clone()
     env.step(ZERO)
-    d = torch.linalg.vector_norm(env.subgoal_xy[1] - env.object_xy[1]).item()
+    d = torch.linalg.vector_norm(env.subgoal_xy[1] - env.state.object_xy[1]).item()
     assert 1.5 - 1e-4 <= d <= 3.0 + 1e-4  # a fresh subgoal 1.5-3 m away
     assert torch.equal(env.subgoal_xy[[0, 2, 3]], others)
 
@@ -99,12 +98,12 @@ def test_reset_env_starts_from_a_fresh_layout_at_rest(env):
     obs = env.observations()
     for _ in range(10):
         obs, *_ = env.step(toward_object(obs, 4, 2))
-    env.subgoal_xy[1] = env.object_xy[1]
+    env.subgoal_xy[1] = env.state.object_xy[1]
     env.step(ZERO)
-    ring = torch.linalg.vector_norm(env.robot_xy[1] - env.object_xy[1], dim=-1)
-    assert env.object_xy[1].tolist() == pytest.approx([0.0, 0.0], abs=1e-6)  # the cuboid's start
+    ring = torch.linalg.vector_norm(env.state.robot_xy[1] - env.state.object_xy[1], dim=-1)
+    assert env.state.object_xy[1].tolist() == pytest.approx([0.0, 0.0], abs=1e-6)  # the cuboid's start
     assert ((ring >= 1.2 - 1e-4) & (ring <= 1.3 + 1e-4)).all()  # robots back on the 1.2-1.3 m ring
-    assert env.robot_vel[1].abs().max().item() < 1e-6
+    assert env.state.robot_vel[1].abs().max().item() < 1e-6
 
 
 def test_object_friction_is_drawn_per_env_from_the_task_range(env):
@@ -120,7 +119,7 @@ def test_reward_of_the_successful_step_is_computed_before_the_reset(env):
     # (d now ~0). After a reset progress would be -3.25e-3 * d_new instead. The other terms stay below 0.02 here.
     env.step(ZERO)
     d_prev = env.subgoal_distance[1].item()
-    env.subgoal_xy[1] = env.object_xy[1]
+    env.subgoal_xy[1] = env.state.object_xy[1]
     _, reward, *_ = env.step(ZERO)
     assert reward[1].tolist() == pytest.approx([10 + 0.65 * d_prev] * 2, abs=0.05)
     assert reward[[0, 2, 3]].abs().max().item() < 1.0
@@ -128,7 +127,7 @@ def test_reward_of_the_successful_step_is_computed_before_the_reset(env):
 
 def test_success_is_logged_for_the_episode_that_ended(env):
     env.step(ZERO)
-    env.subgoal_xy[1] = env.object_xy[1]
+    env.subgoal_xy[1] = env.state.object_xy[1]
     _, _, _, _, info = env.step(ZERO)
     assert info["log"]["Metrics/success_rate"].item() == 1.0
     assert info["log"]["Reward/subgoal_reached"].item() == pytest.approx(10.0)
@@ -157,14 +156,14 @@ def test_robots_closer_than_the_collision_distance_end_the_episode_as_an_excepti
     assert info["episode_end"]["exception"].tolist() == [False, False, True, False]
     assert info["episode_end"]["success"].tolist() == [False] * 4
     assert reward[2].max().item() < -4.0  # exception weight -5
-    assert info["episode_end"]["exception_kind"].tolist() == [-1, -1, EXCEPTIONS.index("robot_collision"), -1]
+    assert info["episode_end"]["exception_kind"].tolist() == [-1, -1, env.exception_names.index("robot_collision"), -1]
 
 
 def test_agent_proximity_in_the_env_uses_the_current_robot_positions(env):
     obs = env.observations()
     for _ in range(3):
         obs, *_ = env.step(toward_object(obs, 4, 2))
-    d = torch.linalg.vector_norm(env.robot_xy[:, 0] - env.robot_xy[:, 1], dim=-1)
+    d = torch.linalg.vector_norm(env.state.robot_xy[:, 0] - env.state.robot_xy[:, 1], dim=-1)
     expected = (1.0 / (0.02 + d / 3.0)).unsqueeze(1).expand(4, 2)
     assert torch.allclose(terms.agent_proximity(env), expected, atol=1e-3)
 
@@ -175,7 +174,7 @@ def test_same_seed_and_actions_give_the_same_trajectory(make_env):
         obs = env.observations()
         for _ in range(30):  # long enough for the robots to reach and push the object
             obs, *_ = env.step(toward_object(obs, 2, 2))
-        return {"object_xy": env.object_xy, "robot_xy": env.robot_xy, "subgoal_xy": env.subgoal_xy}
+        return {"object_xy": env.state.object_xy, "robot_xy": env.state.robot_xy, "subgoal_xy": env.subgoal_xy}
 
     first, again, other = trajectory(3), trajectory(3), trajectory(4)
     assert all(torch.equal(first[k], again[k]) for k in first)

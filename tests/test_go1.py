@@ -99,14 +99,14 @@ def test_the_locomotion_env_steps_with_the_documented_shapes_and_randomizes_each
     for k, key in enumerate(("vx", "vy", "yaw_rate")):
         assert ((env.commands[:, k] >= spec[key][0]) & (env.commands[:, k] <= spec[key][1])).all()
     floor = env.model.geom("floor").id
-    assert len(set(env.batch.expand("geom_friction")[:, floor, 0].round(6))) == 4  # one friction per env
+    assert len(set(env.sim.batch.expand("geom_friction")[:, floor, 0].round(6))) == 4  # one friction per env
     for _ in range(10):
         obs, reward, terminated, _, _ = env.step(torch.zeros(4, 1, 12))
         assert reward.shape == (4, 1) and torch.isfinite(reward).all() and torch.isfinite(obs["policy"]).all()
     assert not terminated.any()  # standing in the default pose does not fall
     # tipped on its back: a fall ends the episode as an exception
-    env.qpos[0, 3:7] = [0.0, 1.0, 0.0, 0.0]
-    env.batch.forward(np.array([0]))
+    env.sim.qpos[0, 3:7] = [0.0, 1.0, 0.0, 0.0]
+    env.sim.batch.forward(np.array([0]))
     _, reward, terminated, _, info = env.step(torch.zeros(4, 1, 12))
     assert terminated[0] and info["episode_end"]["exception"][0] and reward[0, 0] < 0
 
@@ -189,21 +189,21 @@ def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_ru
     cfg = cfg_for("lowlevel=go1", f"lowlevel.policy={low_run / 'policy.pt'}")
     env = MidPushEnv(cfg, num_envs=3)
     assert env.sim.model.nu == 12 * env.num_agents
-    layout_xy = env.robot_xy.clone()
-    assert (env.robot_tilt < 0.05).all()  # placed standing upright
+    layout_xy = env.state.robot_xy.clone()
+    assert (env.state.robot_tilt < 0.05).all()  # placed standing upright
     trunk = env.sim.qpos[:, env.lowlevel.qpos_idx[:, 2]]
     assert np.allclose(trunk, go1.standing_height() + 0.01)
     before = env.sim.ctrl.copy()
     obs, reward, *_ = env.step(torch.zeros(3, env.num_agents, 3))
     assert not np.allclose(env.sim.ctrl, before)  # the locomotion policy wrote joint targets
     assert obs["policy"].shape[:2] == (3, env.num_agents) and torch.isfinite(reward).all()
-    assert torch.linalg.vector_norm(env.robot_xy - layout_xy, dim=-1).max() < 0.2  # one 20 ms step
+    assert torch.linalg.vector_norm(env.state.robot_xy - layout_xy, dim=-1).max() < 0.2  # one 20 ms step
     # a robot tipped over is a fall: an exception of the mid level
     env.sim.qpos[0, env.lowlevel.qpos_idx[0, 3:7]] = [0.0, 1.0, 0.0, 0.0]
     env.sim.batch.forward(np.array([0]))
     *_, info = env.step(torch.zeros(3, env.num_agents, 3))
     assert info["episode_end"]["exception"][0]
-    assert env.EXCEPTIONS[int(info["episode_end"]["exception_kind"][0])] == "robot_tilt"
+    assert env.exception_names[int(info["episode_end"]["exception_kind"][0])] == "robot_tilt"
 
 
 def test_the_lag_fit_recovers_a_known_first_order_response():

@@ -69,13 +69,13 @@ def test_action_zero_follows_the_path_at_the_middle_distance(high_cfg, mid):
     env = HighPushEnv(high_cfg, mid, num_envs=2)
     direction = env.path_direction()
     subgoal = env.subgoal_from_action(torch.zeros(2, 2))
-    assert torch.allclose(subgoal, env.object_xy + 2.25 * direction, atol=1e-5)
+    assert torch.allclose(subgoal, env.state.object_xy + 2.25 * direction, atol=1e-5)
 
 
 def test_follow_path_ignores_the_policy_and_keeps_every_subgoal_on_the_path(high_cfg, mid):
     high_cfg["level"]["follow_path"] = True
     env = HighPushEnv(high_cfg, mid, num_envs=2)
-    expected = env.object_xy + 2.25 * env.path_direction()  # where the action (0, 0) puts the subgoal
+    expected = env.state.object_xy + 2.25 * env.path_direction()  # where the action (0, 0) puts the subgoal
     env._apply_action(torch.tensor([[[1.0, -1.0]], [[-0.5, 0.7]]]))
     assert torch.allclose(env.subgoal_xy, expected, atol=1e-5)
 
@@ -90,7 +90,7 @@ def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
     assert terminated.all()
     assert info["episode_end"]["planner_failure"].all()
     assert not info["episode_end"]["success"].any()
-    assert (info["episode_end"]["exception_kind"] == HighPushEnv.EXCEPTIONS.index("planner_failure")).all()
+    assert (info["episode_end"]["exception_kind"] == env.exception_names.index("planner_failure")).all()
 
 
 @pytest.mark.parametrize("evaluation", [False, True])
@@ -103,14 +103,14 @@ def test_training_plans_its_paths_on_evaluation_maps_when_asked(high_cfg, evalua
     env = make_env(high_cfg, evaluation)
     assert env.planner is not None and not env.plan_failed.any()
     start, goal = env.path[:, 0], env.path[:, -1]
-    assert torch.allclose(start, env.object_xy, atol=1e-4) and torch.allclose(goal, env.target_xy, atol=1e-4)
+    assert torch.allclose(start, env.state.object_xy, atol=1e-4) and torch.allclose(goal, env.target_xy, atol=1e-4)
     gap = point_distance(resample(env.path, 256), env.obstacles).amin(1)  # (E, K): the planned path's clearance
     assert (gap >= object_radius(high_cfg["task"]["object"]) - 1e-3).all()
 
 
 def _obstacle_on_robot_0_of_env_0(env) -> None:
     obstacles = env.obstacles.clone()
-    obstacles[0, 0, :2] = env.robot_xy[0, 0]
+    obstacles[0, 0, :2] = env.state.robot_xy[0, 0]
     obstacles[0, 0, 2] = 0.0
     env.set_obstacles(torch.arange(2).numpy(), obstacles)
 
@@ -238,13 +238,13 @@ def test_the_hl_baseline_gives_each_robot_its_own_goal_and_no_mid_level(cfg_for)
     assert env.policy_agents == 2 and "ocb" in env.rewards.terms
     obs = env.observations()
     assert obs["policy"].shape == (3, 2, nav_high_obs_dim(cfg)) == obs["critic"].shape
-    start = env.robot_xy.clone()
+    start = env.state.robot_xy.clone()
     # robot 0 walks toward the target (+x of the target frame), robot 1 away from it
     action = torch.tensor([[1.0, 0.0], [-1.0, 0.0]]).expand(3, 2, 2)
     obs, reward, *_ = env.step(action)
-    heading = env.target_xy - env.object_xy
+    heading = env.target_xy - env.state.object_xy
     heading = heading / torch.linalg.vector_norm(heading, dim=-1, keepdim=True)
-    moved = ((env.robot_xy - start) * heading.unsqueeze(1)).sum(-1)  # (E, A) along the target direction
+    moved = ((env.state.robot_xy - start) * heading.unsqueeze(1)).sum(-1)  # (E, A) along the target direction
     assert (moved[:, 0] > 0.1).all() and (moved[:, 1] < -0.1).all()
     goal_offset = torch.linalg.vector_norm(env.robot_goal_xy - start, dim=-1)
     assert torch.allclose(goal_offset, torch.full((3, 2), cfg["level"]["robot_goal_range_m"]), atol=1e-4)

@@ -14,7 +14,7 @@ E = 4
 
 @pytest.mark.parametrize("level", sorted(LEVELS))
 def test_a_level_resets_and_steps_with_finite_tensors_of_its_shapes(level, smoke_run):
-    extra = [f"mid={smoke_run}"] if getattr(LEVELS[level], "needs_mid", False) else []
+    extra = [f"mid={smoke_run}"] if LEVELS[level].frozen_mid else []
     cfg = composed("debug=smoke", f"level={level}", *extra)
     cfg["num_envs"] = E
     env = make_env(cfg)

@@ -22,7 +22,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2
 from mcap.reader import make_reader
 
-from mapush.envs.mid import EXCEPTIONS, MidPushEnv
+from mapush.envs.mid import MidPushEnv
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.layout import episode_layout
 from mapush.logging.mcap_files import summary
@@ -57,7 +57,7 @@ def by_topic(messages) -> dict[str, list]:
 def record_episode(cfg: dict, path: Path, actions: torch.Tensor, steps: int) -> MidPushEnv:
     """Run 2 envs for `steps` steps with fixed actions, recording env 0's first episode."""
     env = MidPushEnv(cfg, num_envs=2)
-    recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), EXCEPTIONS)
+    recorder = EpisodeRecorder(path, SceneLayout.from_config(cfg), list(env.rewards.terms), env.exception_names)
     recorder.watch([0], env.dt, "test", from_start=True)
     env.recorders.append(recorder)
     for _ in range(steps):
@@ -250,12 +250,15 @@ def test_scene_draws_the_object_in_its_true_shape(recorded):
 def test_transforms_and_markers_follow_the_simulation(tmp_path, cfg_for):
     cfg = cfg_for("debug=smoke")
     env = MidPushEnv(cfg, num_envs=2)
-    recorder = EpisodeRecorder(tmp_path / "e.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms), EXCEPTIONS)
+    recorder = EpisodeRecorder(
+        tmp_path / "e.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms), env.exception_names
+    )
     recorder.watch([0], env.dt, "test", from_start=True)
     env.recorders.append(recorder)
     actions = torch.tensor([1.0, 0.0, 0.5]).expand(2, 2, 3)
     env.step(actions)
-    robot_xy, robot_yaw, object_xy = env.robot_xy[0].clone(), env.robot_yaw[0].clone(), env.object_xy[0].clone()
+    state = env.state
+    robot_xy, robot_yaw, object_xy = state.robot_xy[0].clone(), state.robot_yaw[0].clone(), state.object_xy[0].clone()
     subgoal = env.subgoal_xy[0].clone()
     for _ in range(49):  # the rest of the 1 s episode
         env.step(actions)
@@ -329,13 +332,13 @@ while True:
 KILL_EPISODES = """
 import sys, torch
 from mapush.config import compose_config, to_plain
-from mapush.envs.mid import EXCEPTIONS, MidPushEnv
+from mapush.envs.mid import MidPushEnv
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.scene import SceneLayout
 cfg = to_plain(compose_config(["debug=smoke", "level.episode_length_s=0.2"]))
 env = MidPushEnv(cfg, num_envs=1)
 recorder = EpisodeRecorder(sys.argv[1] + "/episodes.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms),
-                           EXCEPTIONS)
+                           env.exception_names)
 recorder.watch([0], env.dt, "kill", from_start=False, every_steps=1)
 env.recorders.append(recorder)
 while True:
@@ -557,7 +560,7 @@ def test_the_hl_scene_shows_each_robots_navigation_goal(tmp_path, cfg_for):
     cfg = cfg_for("level=high_nav", "level.episode_length_s=4")
     env = NavHighPushEnv(cfg, num_envs=1)
     recorder = EpisodeRecorder(
-        tmp_path / "e.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms), env.EXCEPTIONS
+        tmp_path / "e.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms), env.exception_names
     )
     recorder.watch([0], env.frame_dt, "test", from_start=True)
     env.recorders.append(recorder)
@@ -578,12 +581,12 @@ def test_the_low_level_scene_draws_every_go1_geom_where_the_simulation_has_it(tm
 
     cfg = cfg_for("level=low", "level.episode_length_s=0.2")
     env = LocomotionEnv(cfg, num_envs=2, evaluation=True)
-    recorder = EpisodeRecorder(tmp_path / "e.mcap", env.scene_layout(cfg), list(env.rewards.terms), env.EXCEPTIONS)
+    recorder = EpisodeRecorder(tmp_path / "e.mcap", env.scene_layout(cfg), list(env.rewards.terms), env.exception_names)
     recorder.watch([1], env.dt, "test", from_start=True)
     env.recorders.append(recorder)
     env.step(torch.zeros(2, 1, 12))
     feet = env.geom_xpos[1, np.sort(env.feet)].copy()  # drawn in geom order
-    trunk = env.qpos[1, :3].copy()
+    trunk = env.sim.qpos[1, :3].copy()
     for _ in range(9):  # the rest of the 0.2 s episode
         env.step(torch.zeros(2, 1, 12))
     recorder.close()

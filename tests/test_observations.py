@@ -8,6 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import torch
+from stand_ins import stand_in_env
 
 from mapush.envs.observations import global_dim, global_observation, local_dim, local_observation, to_agent_frame
 
@@ -15,7 +16,7 @@ from mapush.envs.observations import global_dim, global_observation, local_dim, 
 def stand_in() -> SimpleNamespace:
     """1 env, 2 robots: robot 0 at (1, 0) facing +y (yaw pi/2), robot 1 at (0, -2) facing +x; object at the origin
     with yaw pi/2, subgoal at (0, 3), step 10 of 50."""
-    return SimpleNamespace(
+    return stand_in_env(
         num_envs=1,
         num_agents=2,
         robot_xy=torch.tensor([[[1.0, 0.0], [0.0, -2.0]]]),

@@ -7,11 +7,11 @@ the agent) . (unit vector object -> subgoal): +1 behind the object, 0 beside it,
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
+from stand_ins import stand_in_env
 
 from mapush.rewards.terms import hull_inward_normal, occlusion_based
 from mapush.sim.shapes import CIRCLE_HULL_VERTICES, object_hull
@@ -30,7 +30,7 @@ CYLINDER = {"parts": [{"type": "cylinder", "size": [1.5, 0.5], "pos": [0.0, 0.0]
 def ocb(object_cfg: dict, agents, subgoal=(5.0, 0.0), object_xy=(0.0, 0.0), yaw: float = 0.0) -> torch.Tensor:
     """OCB of agents at world points `agents` (A, 2) around one object; Shape: (A,)."""
     robot_xy = torch.tensor([agents], dtype=torch.float32)
-    env = SimpleNamespace(
+    env = stand_in_env(
         hull=torch.tensor(object_hull(object_cfg), dtype=torch.float32),
         object_xy=torch.tensor([object_xy], dtype=torch.float32),
         object_yaw=torch.tensor([yaw], dtype=torch.float32),

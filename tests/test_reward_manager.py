@@ -7,9 +7,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import torch
+from stand_ins import stand_in_env
 
 from mapush.errors import BadInput
-from mapush.rewards.manager import RewardManager, resolve_term
+from mapush.rewards.manager import RewardManager
+from mapush.terms import resolve_term
 
 REACHED = {"func": "mapush.rewards.terms:subgoal_reached", "weight": 10.0}
 EXCEPTION = {"func": "mapush.rewards.terms:exception", "weight": -5.0}
@@ -18,7 +20,7 @@ PROGRESS = {"func": "mapush.rewards.terms:subgoal_progress", "weight": 0.5, "par
 
 def stand_in() -> SimpleNamespace:
     """Env 0 succeeded (d 2.0 -> 1.9), env 1 failed (d 1.0 -> 1.1); 2 agents each."""
-    return SimpleNamespace(
+    return stand_in_env(
         num_envs=2,
         num_agents=2,
         policy_agents=2,

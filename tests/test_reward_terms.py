@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import torch
+from stand_ins import stand_in_env
 
 from mapush.rewards import terms
 
@@ -19,10 +20,10 @@ def stand_in(**attrs) -> SimpleNamespace:
     robot_xy = attrs.get("robot_xy")
     if robot_xy is None:
         agents = attrs.pop("num_agents", 2)
-        return SimpleNamespace(num_envs=attrs.pop("num_envs", 1), num_agents=agents, policy_agents=agents, **attrs)
+        return stand_in_env(num_envs=attrs.pop("num_envs", 1), num_agents=agents, policy_agents=agents, **attrs)
     distance = torch.linalg.vector_norm(robot_xy.unsqueeze(2) - robot_xy.unsqueeze(1), dim=-1)
     E, A = robot_xy.shape[:2]
-    return SimpleNamespace(num_envs=E, num_agents=A, policy_agents=A, robot_distance=distance, **attrs)
+    return stand_in_env(num_envs=E, num_agents=A, policy_agents=A, robot_distance=distance, **attrs)
 
 
 def test_subgoal_reached_is_one_for_every_agent_of_a_successful_env():

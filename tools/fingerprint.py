@@ -1,7 +1,8 @@
 """Fingerprints of every level's numbers, to check that a refactor changed no behaviour.
 
 A seeded 16-env rollout (60 steps of seeded random actions) of each registered level, hashed over observations,
-rewards and episode flags. Run it on two commits (e.g. `git worktree add /tmp/old <commit>`, then
+rewards, episode flags and the outcomes of the episodes that end (`info["episode_end"]`). Run it on two commits
+(e.g. `git worktree add /tmp/old <commit>`, then
 `PYTHONPATH=/tmp/old python tools/fingerprint.py MID_RUN` from /tmp/old) and compare the JSON lines; equal hashes
 mean bitwise equal numbers. MID_RUN is a mid-level cuboid run dir (e.g. `mapush train debug=smoke`) for the
 high level's frozen mid level.
@@ -38,8 +39,9 @@ def fingerprint(mid_run: str, envs: int = 16, steps: int = 60) -> dict[str, str]
         gen = torch.Generator().manual_seed(0)
         for _ in range(steps):
             actions = torch.rand(envs, env.policy_agents, env.num_actions, generator=gen) * 2 - 1
-            obs, reward, terminated, truncated, _ = env.step(actions)
-            for tensor in (obs["policy"], obs["critic"], reward, terminated, truncated):
+            obs, reward, terminated, truncated, info = env.step(actions)
+            end = info["episode_end"]
+            for tensor in (obs["policy"], obs["critic"], reward, terminated, truncated, *end.values()):
                 digest.update(tensor.detach().cpu().numpy().tobytes())
         out[level] = digest.hexdigest()[:16]
     return out

@@ -29,12 +29,6 @@ from mapush.train import attach_episode_recorder
 ROUNDS = 3
 
 
-def _sim_of(env):
-    """(batch, ctrl, physics steps per env-step) of an env: `BatchSim` levels, or the low level's own batch."""
-    sim = getattr(env, "sim", env)
-    return sim.batch, sim.ctrl, sim.decimation
-
-
 def _time_env(env, steps: int, gen: torch.Generator) -> float:
     shape = (steps, env.num_envs, env.policy_agents, env.num_actions)
     actions = torch.rand(*shape, generator=gen) * 2 - 1
@@ -45,12 +39,12 @@ def _time_env(env, steps: int, gen: torch.Generator) -> float:
 
 
 def _time_raw(env, steps: int, rng: np.random.Generator) -> float:
-    batch, ctrl, decimation = _sim_of(env)
-    controls = rng.uniform(-0.5, 0.5, (steps, *ctrl.shape))
+    sim = env.sim  # every level's `BatchSim`
+    controls = rng.uniform(-0.5, 0.5, (steps, *sim.ctrl.shape))
     start = time.perf_counter()
     for k in range(steps):
-        ctrl[:] = controls[k]
-        batch.step(nstep=decimation)
+        sim.ctrl[:] = controls[k]
+        sim.batch.step(nstep=sim.decimation)
     return env.num_envs * steps / (time.perf_counter() - start)
 
 
@@ -91,9 +85,8 @@ def iteration_breakdown(env, runner, iterations: int, log_path: Path) -> dict:
     (1.0 = nothing missed).
     """
     clock = PhaseClock()
-    batch, _, _ = _sim_of(env)
-    clock.watch(batch, "step", "physics")
-    if hasattr(env, "sim"):
+    clock.watch(env.sim.batch, "step", "physics")
+    if hasattr(env.sim, "lowlevel"):
         clock.watch(env.sim.lowlevel, "command", "low level")
     if getattr(env, "mid", None) is not None:
         clock.watch(env.mid, "commands", "frozen mid level")

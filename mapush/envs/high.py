@@ -1,7 +1,7 @@
 """The high-level env: a centralized policy picks the object's next subgoal; the frozen mid level pushes it there.
 
 One decision every `level.decision_steps` mid-level steps (0.5 s; the original: 20 ms). Success: the object
-within `success_distance` of the final target, 10+ m away through obstacles. Exceptions (`EXCEPTIONS`) are
+within `success_distance` of the final target, 10+ m away through obstacles. Exceptions (`level.exceptions`) are
 penalized; those in `level.terminal_exceptions` also end the episode (by default not the contacts, as in the
 original's evaluation: paper-and-original.md 3.2).
 
@@ -19,28 +19,16 @@ import numpy as np
 import torch
 
 from mapush.envs import observations as obs_terms
-from mapush.envs.common import (
-    BASE_EXCEPTIONS,
-    EpisodeOutcomes,
-    base_exception_flags,
-    divergence,
-    episode_end,
-    pose_frame,
-    read_sim_state,
-    validate_push_config,
-)
+from mapush.envs.core import exception_names
+from mapush.envs.push import PushEnv
 from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
-from mapush.logging.scene import SceneLayout
-from mapush.lowlevel import BACKENDS
 from mapush.planning.geometry import corners, near_gaps, rectangles, rotate, transform
 from mapush.planning.paths import nearest_index, path_spacing, random_curved_paths
-from mapush.rewards.manager import RewardManager
-from mapush.sim.core import BatchSim
-from mapush.sim.shapes import object_hull, object_radius
+from mapush.sim.shapes import object_radius
 
 
-class HighPushEnv:
+class HighPushEnv(PushEnv):
     """E envs, each a team of A robots under one high-level policy, pushing an object 10+ m through obstacles.
 
     Args:
@@ -49,72 +37,50 @@ class HighPushEnv:
         num_envs: overrides `cfg["num_envs"]`.
         planner: an `ObjectPlanner` to plan every episode's reference path among obstacles placed as at
             evaluation; None draws the paper's random curved paths with obstacles beside them (training).
+        evaluation: unused here (`mapush.levels.make_env` passes the planner that evaluation asks for).
     """
 
-    EXCEPTIONS = (*BASE_EXCEPTIONS, "robot_hit_obstacle", "object_hit_obstacle", "planner_failure")
-    needs_mid = True
-    """Whether the env drives the robots through a frozen mid level (`mid=RUN_DIR`)."""
-
-    def __init__(self, cfg: dict, mid, num_envs: int | None = None, planner=None):
-        self.validate(cfg)
-        self.cfg = cfg
-        task, level = cfg["task"], cfg["level"]
-        self.num_envs = num_envs or cfg["num_envs"]
-        self.num_agents = task["num_agents"]
-        self.policy_agents = self._policy_rows()
-        self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
-        self.num_obstacles = level["obstacles"]["count"]
-        self.sim = BatchSim(
-            cfg["sim"], task, self.lowlevel, self.num_envs, self.num_obstacles, level["obstacles"]["size"]
-        )
+    def __init__(self, cfg: dict, mid=None, num_envs: int | None = None, planner=None, evaluation: bool = False):
+        level = cfg["level"]
+        super().__init__(cfg, num_envs, self.policy_rows(cfg), decision_steps=int(level["decision_steps"]))
         self.mid = mid
         self.planner = planner
-        self.rewards = RewardManager(cfg["reward"]["terms"])
-        self.sim_dt = self.sim.dt
         self.decision_steps = int(level["decision_steps"])
-        self.dt = self.sim_dt * self.decision_steps
         self.frame_dt = self.sim_dt  # recorders see every mid-level step
-        self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
         self.num_actions = 2  # per policy row: the subgoal's turn and distance, each in [-1, 1]
-        self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
-        self.object_radius = object_radius(task["object"])
+        self.object_radius = object_radius(cfg["task"]["object"])
         self.robot_size = tuple(cfg["lowlevel"]["size"][:2])
-        A, E = self.num_agents, self.num_envs
-        self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A
-        self.generator = torch.Generator().manual_seed(int(cfg["seed"]))
-        self.episode_step = torch.zeros(E, dtype=torch.long)  # decisions
-        self.inner_step = torch.zeros(E, dtype=torch.long)  # mid-level steps
-        self.subgoal_xy = torch.zeros(E, 2)
+        E, rows = self.num_envs, self.policy_agents
+        self.inner_step = torch.zeros(E, dtype=torch.long)  # mid-level steps; `episode_step` counts decisions
         self.target_xy = torch.zeros(E, 2)
         self.path = torch.zeros(E, level["path"]["points"], 2)
         self.obstacles = torch.zeros(E, self.num_obstacles, 5)
         self.obstacle_corners = torch.zeros(E, self.num_obstacles, 4, 2)  # fixed per episode, set at reset
+        self.target_distance = torch.zeros(E)
         self.plan_failed = torch.zeros(E, dtype=torch.bool)
-        self.success = torch.zeros(E, dtype=torch.bool)
-        self.exception = torch.zeros(E, dtype=torch.bool)  # an exception in the latest decision (the penalty)
-        self.failed = torch.zeros(E, dtype=torch.bool)  # a terminal exception: the episode ends as a failure
-        self.exception_kind = torch.full((E,), -1)  # the terminal exception, -1 for none
+        # `exception`: an exception in the latest decision (the penalty); `failed`: a terminal one, which ends the
+        # episode as a failure and names `exception_kind`
+        self.failed = torch.zeros(E, dtype=torch.bool)
         self.exception_decisions = torch.zeros(E)  # decisions with an exception, this episode
-        unknown = set(level["terminal_exceptions"]) - set(self.EXCEPTIONS)
-        if unknown:
-            raise BadInput(f"unknown level.terminal_exceptions {sorted(unknown)}; valid: {', '.join(self.EXCEPTIONS)}")
-        self.terminal = torch.tensor([k in level["terminal_exceptions"] for k in self.EXCEPTIONS])
-        rows = self.policy_agents
-        self.episode_sums = {name: torch.zeros(E, rows) for name in self.rewards.terms}
+        self.terminal = torch.tensor([k in level["terminal_exceptions"] for k in self.exception_names])
         self.last_reward = torch.zeros(E, rows)
         self.last_parts = {name: torch.zeros(E, rows) for name in self.rewards.terms}
-        self.outcomes = EpisodeOutcomes()
-        self.recorders = []
         self.reset(np.arange(E))
 
-    def _policy_rows(self) -> int:
+    @staticmethod
+    def policy_rows(cfg: dict) -> int:
         """Policy rows per env: one centralized decision per team."""
         return 1
 
-    @staticmethod
-    def validate(cfg: dict) -> None:
-        """Check a high-level config before anything is built: the push checks plus the held reward terms."""
-        validate_push_config(cfg)
+    @classmethod
+    def validate(cls, cfg: dict) -> None:
+        """Check a high-level config before anything is built: the push checks, the terminal exceptions and the
+        held reward terms."""
+        super().validate(cfg)
+        names = exception_names(cfg)
+        unknown = set(cfg["level"]["terminal_exceptions"]) - set(names)
+        if unknown:
+            raise BadInput(f"unknown level.terminal_exceptions {sorted(unknown)}; valid: {', '.join(names)}")
         terms = cfg["reward"]["terms"]
         for name in cfg["level"]["hold_at_target"]:
             if name not in terms:
@@ -126,12 +92,9 @@ class HighPushEnv:
         return self.inner_step.float() * self.sim_dt
 
     # ----------------------------------------------------------------------------------------------------------
-    def reset(self, ids: np.ndarray) -> None:
-        """Start new episodes in envs `ids`: layout, reference path, obstacles."""
-        if len(ids) == 0:
-            return
+    def _start_episodes(self, ids: np.ndarray, t: torch.Tensor) -> None:
+        """Layout, reference path and obstacles of new episodes in envs `ids`."""
         level = self.cfg["level"]
-        t = torch.from_numpy(ids)
         layout = sample_high_layout(self.generator, len(ids), self.cfg)
         start, target = layout["object_xy"], layout["target_xy"]
         points = level["path"]["points"]
@@ -147,16 +110,12 @@ class HighPushEnv:
         self.set_obstacles(ids, obstacles)
         self.subgoal_xy[t] = layout["subgoal_xy"]
         self.plan_failed[t] = failed
-        self.episode_step[t] = 0
         self.inner_step[t] = 0
         self.success[t] = False
         self.exception[t] = False
         self.failed[t] = False
         self.exception_kind[t] = -1
         self.exception_decisions[t] = 0.0
-        for sums in self.episode_sums.values():
-            sums[t] = 0.0
-        self._read_state()
 
     def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
         """Place the obstacles (n, K, 5) of envs `ids`, in the simulation and in the env's geometry."""
@@ -179,23 +138,22 @@ class HighPushEnv:
         return torch.stack(paths), torch.tensor(failed)
 
     def _read_state(self) -> None:
-        """The simulation state (`read_sim_state`), the target distance and the gaps to the obstacles."""
-        read_sim_state(self)
-        self.target_distance = torch.linalg.vector_norm(self.object_xy - self.target_xy, dim=-1)
+        """The simulation state, the target distance and the gaps to the obstacles."""
+        super()._read_state()
+        s = self.state
+        self.target_distance = torch.linalg.vector_norm(s.object_xy - self.target_xy, dim=-1)
         if self.num_obstacles:
-            hull = transform(self.hull, self.object_xy, self.object_yaw)  # (E, H, 2)
+            hull = transform(self.hull, s.object_xy, s.object_yaw)  # (E, H, 2)
             self.object_obstacle_gap = near_gaps(
-                self.object_xy.unsqueeze(1),
+                s.object_xy.unsqueeze(1),
                 self.object_radius,
                 hull.unsqueeze(1),
                 self.obstacles,
                 self.obstacle_corners,
             )[:, 0]  # (E, K)
-            boxes = rectangles(self.robot_xy, self.robot_yaw, *self.robot_size)  # (E, A, 4, 2)
+            boxes = rectangles(s.robot_xy, s.robot_yaw, *self.robot_size)  # (E, A, 4, 2)
             robot_radius = math.hypot(*self.robot_size) / 2
-            self.robot_obstacle_gap = near_gaps(
-                self.robot_xy, robot_radius, boxes, self.obstacles, self.obstacle_corners
-            )
+            self.robot_obstacle_gap = near_gaps(s.robot_xy, robot_radius, boxes, self.obstacles, self.obstacle_corners)
         else:
             self.object_obstacle_gap = torch.full((self.num_envs, 1), float("inf"))
             self.robot_obstacle_gap = torch.full((self.num_envs, self.num_agents, 1), float("inf"))
@@ -204,9 +162,9 @@ class HighPushEnv:
     def path_direction(self) -> torch.Tensor:
         """Unit vector from the object toward the path point `path_direction_m` past its nearest one: (E, 2)."""
         ahead = self.path_points_ahead(torch.tensor([self.cfg["level"]["path_direction_m"]]))[:, 0]
-        d = ahead - self.object_xy
+        d = ahead - self.state.object_xy
         norm = torch.linalg.vector_norm(d, dim=-1, keepdim=True)
-        fallback = self.target_xy - self.object_xy
+        fallback = self.target_xy - self.state.object_xy
         d = torch.where(norm > 1e-3, d, fallback)
         return d / torch.linalg.vector_norm(d, dim=-1, keepdim=True).clamp(min=1e-6)
 
@@ -214,7 +172,7 @@ class HighPushEnv:
         """Path points at the given arc lengths (L,) past the point nearest the object: (E, L, 2)."""
         points = self.path.shape[1]
         spacing = path_spacing(self.path)
-        idx = nearest_index(self.path, self.object_xy).unsqueeze(1)
+        idx = nearest_index(self.path, self.state.object_xy).unsqueeze(1)
         offset = torch.round(distances.unsqueeze(0) / spacing.unsqueeze(1).clamp(min=1e-3)).long()
         ahead = (idx + offset).clamp(max=points - 1)
         return self.path.gather(1, ahead.unsqueeze(-1).expand(-1, -1, 2))
@@ -227,12 +185,7 @@ class HighPushEnv:
         distance = d_min + (a[:, 1] + 1) / 2 * (d_max - d_min)
         base = self.path_direction()
         direction = rotate(base, a[:, 0] * level["subgoal_max_turn"])
-        return self.object_xy + direction * distance.unsqueeze(-1)
-
-    def observations(self) -> dict[str, torch.Tensor]:
-        """`policy` and `critic`: (E, 1, d), the same centralized view (documented in `high_observation`)."""
-        obs = torch.nan_to_num(obs_terms.high_observation(self), 0.0, 0.0, 0.0).unsqueeze(1)
-        return {"policy": obs, "critic": obs}
+        return self.state.object_xy + direction * distance.unsqueeze(-1)
 
     # ----------------------------------------------------------------------------------------------------------
     def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
@@ -254,9 +207,9 @@ class HighPushEnv:
             failed = self.sim.step(commands)
             self._read_state()
             self.inner_step += (~finished).long()
-            diverged = divergence(self, failed)
-            diverged_any |= diverged
-            kinds = self._exceptions(diverged) & ~finished  # (kinds, E)
+            self.diverged = self._divergence(failed)
+            diverged_any |= self.diverged
+            kinds = self.exception_flags() & ~finished  # (kinds, E)
             self.exception |= kinds.any(0)
             terminal = kinds & self.terminal.unsqueeze(1)
             new_failure = terminal.any(0)
@@ -270,6 +223,7 @@ class HighPushEnv:
                 done_now = self._done_after_decision(finished) if last else torch.zeros_like(finished)
                 for recorder in self.recorders:
                     recorder.capture(self, commands, self.last_reward, self.last_parts, done_now)
+        self.diverged = diverged_any
         self.episode_step += 1
         self.exception_decisions += self.exception.float()
         terminated = self.success | self.failed
@@ -278,14 +232,8 @@ class HighPushEnv:
         if level["hold_at_target"]:
             extra = self._hold_factor(self.success).unsqueeze(-1) - 1.0
             reward = reward + extra * sum(parts[name] for name in level["hold_at_target"])
-        reward = torch.nan_to_num(reward, 0.0, 0.0, 0.0)
-        for name, value in parts.items():
-            self.episode_sums[name] += torch.nan_to_num(value, 0.0, 0.0, 0.0)
-        self.last_reward, self.last_parts = reward, parts
-        done = terminated | truncated
-        info = self._episode_info(done, diverged_any)
-        self.reset(done.nonzero().flatten().numpy())
-        return self.observations(), reward, terminated, truncated, info
+        self.last_reward, self.last_parts = torch.nan_to_num(reward, 0.0, 0.0, 0.0), parts
+        return self._finish_step(reward, parts, terminated, truncated, None)
 
     def _apply_action(self, actions: torch.Tensor) -> None:
         """Start a decision: the object's subgoal from the actions (E, 1, 2), shown by the subgoal marker; with
@@ -315,31 +263,14 @@ class HighPushEnv:
     def _done_after_decision(self, finished: torch.Tensor) -> torch.Tensor:
         return finished | (self.episode_step + 1 >= self.max_episode_length)
 
-    def _exceptions(self, diverged: torch.Tensor) -> torch.Tensor:
-        """(len(EXCEPTIONS), E) flags in the order of EXCEPTIONS."""
-        tolerance = self.cfg["level"]["contact_tolerance"]
-        return torch.cat(
-            [
-                base_exception_flags(self, diverged),
-                (self.robot_obstacle_gap < tolerance).flatten(1).any(-1).unsqueeze(0),
-                (self.object_obstacle_gap < tolerance).any(-1).unsqueeze(0),
-                self.plan_failed.unsqueeze(0),
-            ]
-        )
-
-    def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
-        end = {**episode_end(self, done, diverged, self.failed), "planner_failure": self.plan_failed & done}
+    def _episode_info(self, done: torch.Tensor) -> dict:
+        end = {**self.episode_end(done, self.failed), "planner_failure": self.plan_failed & done}
         return self.outcomes.info(end, self.episode_sums, {"exception_decisions": self.exception_decisions})
-
-    @staticmethod
-    def scene_layout(cfg: dict) -> SceneLayout:
-        """What the episode logs draw of this level (the arena, object and robots of `cfg`)."""
-        return SceneLayout.from_config(cfg)
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env: poses, subgoal, target, obstacles (corners) and the reference path."""
         return {
-            **pose_frame(self),
+            **super().scene_frame(),
             "target_xy": self.target_xy,
             "obstacles": self.obstacle_corners,
             "path": self.path,

@@ -20,20 +20,19 @@ touching the ground) ends the episode as an exception; reaching the timeout is a
 from __future__ import annotations
 
 import math
-import os
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 import torch
-from mujoco import batch as mjb
 
-from mapush.envs.common import EpisodeOutcomes, episode_end
+from mapush.envs.core import EnvCore
 from mapush.errors import BadInput
 from mapush.logging.go1_scene import Go1Layout, drawn_geom_ids, quat_multiply
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
 from mapush.lowlevel.go1_model import standalone_spec
-from mapush.rewards.manager import RewardManager
+from mapush.sim.core import BatchSim
 
 
 def locomotion_model(cfg: dict) -> mujoco.MjModel:
@@ -41,95 +40,89 @@ def locomotion_model(cfg: dict) -> mujoco.MjModel:
     return standalone_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], cfg["sim"]["timestep"]).compile()
 
 
-class LocomotionEnv:
+@dataclass
+class LocomotionState:
+    """What every Go1 senses and does now, float32 tensors over envs E (body frame unless said otherwise)."""
+
+    base_height: torch.Tensor  # (E,) trunk origin above the ground, m
+    lin_vel: torch.Tensor  # (E, 3) m/s
+    ang_vel: torch.Tensor  # (E, 3) rad/s
+    gravity: torch.Tensor  # (E, 3) unit vector of gravity
+    torques: torch.Tensor  # (E, 12) joint torques, N m
+    feet_xyz: torch.Tensor  # (E, 4, 3) foot centres, world frame, m
+    feet_speed: torch.Tensor  # (E, 4) planar foot speed since the last step, m/s
+    foot_contact: torch.Tensor  # (E, 4) bool
+    trunk_z: torch.Tensor  # (E,) trunk box centre height, m
+
+
+class LocomotionEnv(EnvCore):
     """E Go1s on flat ground, each tracking its own velocity command; see the module docstring."""
 
-    EXCEPTIONS = ("diverged", "fall")
+    state: LocomotionState
 
     def __init__(self, cfg: dict, num_envs: int | None = None, evaluation: bool = False):
         self.validate(cfg)
-        self.cfg = cfg
-        level, sim = cfg["level"], cfg["sim"]
+        level, sim_cfg = cfg["level"], cfg["sim"]
+        E = num_envs or cfg["num_envs"]
+        self.model = locomotion_model(cfg)
+        sim = BatchSim(self.model, E, sim_cfg["decimation"], sim_cfg["nthread"])
+        super().__init__(cfg, sim, E, num_agents=1, rows=1, dt=sim.dt)
         self.command_ranges = level["eval_commands" if evaluation else "commands"]
         self.push_velocity = level["eval_push_velocity"] if evaluation else level["randomize"]["push_velocity"]
-        self.num_envs = E = num_envs or cfg["num_envs"]
-        self.num_agents = self.policy_agents = 1
         self.num_actions = 12
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
-        self.model = locomotion_model(cfg)
-        self.decimation = sim["decimation"]
-        self.dt = float(self.model.opt.timestep) * self.decimation
-        self.frame_dt = self.dt
-        self.max_episode_length = math.ceil(level["episode_length_s"] / self.dt - 1e-9)
-        nthread = sim["nthread"] or os.cpu_count() or 1
-        self.batch = mjb.Batch(self.model, nsim=E, nthread=min(nthread, E))
-        b = self.batch
-        self.qpos, self.qvel, self.ctrl = b.bind("qpos"), b.bind("qvel"), b.bind("ctrl")
+        b = sim.batch
         self.geom_xpos, self.actuator_force = b.bind("geom_xpos"), b.bind("actuator_force")
         self.body_xquat = b.bind("xquat")
         self.feet = np.array([self.model.geom(name).id for name in go1.FOOT_NAMES])
         self.trunk_geom = self.model.geom("trunk_box").id
+        self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
-        self.generator = torch.Generator().manual_seed(int(cfg["seed"]))
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
-        self.rewards = RewardManager(cfg["reward"]["terms"], cfg["reward"]["positive_only"])
-        self.episode_step = torch.zeros(E, dtype=torch.long)
         self.commands = torch.zeros(E, 3)
         self.actions = torch.zeros(E, 12)
         self.last_actions = torch.zeros(E, 12)
         self.air_time = torch.zeros(E, 4)
         self.first_contact = torch.zeros(E, 4, dtype=torch.bool)
-        self.success = torch.zeros(E, dtype=torch.bool)
-        self.exception = torch.zeros(E, dtype=torch.bool)
-        self.exception_kind = torch.full((E,), -1)
         self.velocity_error_sum = torch.zeros(E)
-        self.episode_sums = {name: torch.zeros(E, 1) for name in self.rewards.terms}
-        self.outcomes = EpisodeOutcomes()
-        self.recorders = []  # EpisodeRecorder / LiveView (mapush.logging.episodes) watching some envs
+        self.state = None  # read at the first reset; the foot speeds need the previous foot positions
         self.drawn_geoms = np.array(drawn_geom_ids(self.model))
         self.reset(np.arange(E))
 
     def _randomize_once(self) -> None:
         """Per-env ground and foot friction and added trunk mass (drawn once, as the original drew friction)."""
         rand = self.cfg["level"]["randomize"]
-        E = self.num_envs
-        friction = self.batch.expand("geom_friction")
+        E, batch = self.num_envs, self.sim.batch
+        friction = batch.expand("geom_friction")
         mu = self.rng.uniform(*rand["friction"], size=E)
         floor = self.model.geom("floor").id
         friction[:, floor, 0] = mu
         friction[:, self.feet, 0] = mu[:, None]
-        mass = self.batch.expand("body_mass")
+        mass = batch.expand("body_mass")
         trunk = self.model.body(go1.ROOT_BODY).id
         mass[:, trunk] = self.model.body_mass[trunk] + self.rng.uniform(*rand["added_mass"], size=E)
-        self.batch.set_const()
+        batch.set_const()
 
     # ----------------------------------------------------------------------------------------------------------
-    def reset(self, ids: np.ndarray) -> None:
-        """New episodes in envs `ids`: standing pose (joint angles jittered), random heading, new commands."""
-        if len(ids) == 0:
-            return
-        n = len(ids)
-        self.batch.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
+    def _start_episodes(self, ids: np.ndarray, t: torch.Tensor) -> None:
+        """Standing pose (joint angles jittered), random heading, new commands."""
+        n, sim = len(ids), self.sim
+        sim.restart(ids)
         qpos = np.zeros((n, self.model.nq))
         qpos[:, 2] = go1.standing_height() + 0.02
         yaw = self.rng.uniform(-math.pi, math.pi, size=n)
         qpos[:, 3], qpos[:, 6] = np.cos(yaw / 2), np.sin(yaw / 2)
         qpos[:, 7:] = self.default_pose * self.rng.uniform(*self.cfg["level"]["randomize"]["joint_scale"], size=(n, 12))
-        self.qpos[ids] = qpos
-        self.qvel[ids] = 0.0
-        self.ctrl[ids] = self.default_pose
-        self.batch.forward(ids)
-        t = torch.from_numpy(ids)
+        sim.qpos[ids] = qpos
+        sim.qvel[ids] = 0.0
+        sim.ctrl[ids] = self.default_pose
+        sim.forward(ids)
         self.commands[t] = self._sample_commands(n)
         self.actions[t] = 0.0
         self.last_actions[t] = 0.0
         self.air_time[t] = 0.0
-        self.episode_step[t] = 0
         self.velocity_error_sum[t] = 0.0
-        for sums in self.episode_sums.values():
-            sums[t] = 0.0
-        self._read_state()
 
     def _sample_commands(self, n: int) -> torch.Tensor:
         spec = self.command_ranges
@@ -140,70 +133,51 @@ class LocomotionEnv:
         return torch.where(still.unsqueeze(-1), torch.zeros_like(commands), commands)
 
     def _read_state(self) -> None:
-        """Body-frame velocities, gravity direction, joints, torques, foot contacts and speeds, as tensors."""
-        quat = self.qpos[:, 3:7]
-        self.base_height = torch.from_numpy(self.qpos[:, 2].astype(np.float32))
-        self.lin_vel = torch.from_numpy(rotate_into_body(quat, self.qvel[:, 0:3]).astype(np.float32))
-        self.ang_vel = torch.from_numpy(self.qvel[:, 3:6].astype(np.float32))  # a free joint's is body-frame
+        """Body-frame velocities, gravity direction, torques, foot contacts and speeds (`LocomotionState`)."""
+        qpos, qvel = self.sim.qpos, self.sim.qvel
+        quat = qpos[:, 3:7]
         down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), (self.num_envs, 3))
-        self.gravity = torch.from_numpy(rotate_into_body(quat, down).astype(np.float32))
-        self.torques = torch.from_numpy(self.actuator_force.astype(np.float32))
         feet = torch.from_numpy(self.geom_xpos[:, self.feet].astype(np.float32))  # (E, 4, 3)
-        previous = getattr(self, "feet_xyz", feet)
-        self.feet_speed = torch.linalg.vector_norm(feet[..., :2] - previous[..., :2], dim=-1) / self.dt
-        self.feet_xyz = feet
-        self.foot_contact = feet[..., 2] < go1.FOOT_RADIUS + self.cfg["level"]["contact_margin_m"]
-        self.trunk_z = torch.from_numpy(self.geom_xpos[:, self.trunk_geom, 2].astype(np.float32))
+        previous = feet if self.state is None else self.state.feet_xyz
 
-    @property
-    def episode_time_s(self) -> torch.Tensor:
-        return self.episode_step.float() * self.dt
+        def tensor(array: np.ndarray) -> torch.Tensor:
+            return torch.from_numpy(array.astype(np.float32))
+
+        self.state = LocomotionState(
+            base_height=tensor(qpos[:, 2]),
+            lin_vel=tensor(rotate_into_body(quat, qvel[:, 0:3])),
+            ang_vel=tensor(qvel[:, 3:6]),  # a free joint's is body-frame
+            gravity=tensor(rotate_into_body(quat, down)),
+            torques=tensor(self.actuator_force),
+            feet_xyz=feet,
+            feet_speed=torch.linalg.vector_norm(feet[..., :2] - previous[..., :2], dim=-1) / self.dt,
+            foot_contact=feet[..., 2] < go1.FOOT_RADIUS + self.cfg["level"]["contact_margin_m"],
+            trunk_z=tensor(self.geom_xpos[:, self.trunk_geom, 2]),
+        )
 
     # ----------------------------------------------------------------------------------------------------------
-    def observations(self) -> dict[str, torch.Tensor]:
-        """`policy` (E, 1, 45): `go1.proprioception`, as the go1 backend computes it; `critic` (E, 1, 48) adds the
-        body-frame linear velocity."""
-        sensed = proprioception(
-            self.qpos, self.qvel, self.commands.numpy(), self.actions.numpy(), self.default_pose
-        ).astype(np.float32)
-        policy = torch.nan_to_num(torch.from_numpy(sensed), 0.0, 0.0, 0.0)
-        critic = torch.cat([policy, torch.nan_to_num(self.lin_vel, 0.0, 0.0, 0.0)], -1)
-        return {"policy": policy.unsqueeze(1), "critic": critic.unsqueeze(1)}
-
     def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
         """One 20 ms policy step. actions: (E, 1, 12). Returns obs, rewards (E, 1), terminated, truncated, info."""
         self.last_actions = self.actions
         clip = self.robot["action_clip"]
         self.actions = actions.reshape(self.num_envs, 12).clamp(-clip, clip)
-        self.ctrl[:] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
-        diverged = torch.zeros(self.num_envs, dtype=torch.bool)
-        try:
-            self.batch.step(nstep=self.decimation)
-        except mjb.SimulationError as err:
-            diverged[torch.as_tensor(np.asarray(err.ids, dtype=np.int64))] = True
+        self.sim.ctrl[:] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
+        failed = self.sim.advance()
         self.episode_step += 1
         self._push()
         self._read_state()
         self._update_air_time()
-        diverged |= ~torch.isfinite(self.base_height)
-        fall = self._fallen()
-        self.exception = diverged | fall
-        self.exception_kind = torch.where(diverged, 0, torch.where(fall, 1, -1))
+        self.diverged = torch.zeros(self.num_envs, dtype=torch.bool)
+        self.diverged[torch.from_numpy(failed)] = True
+        self.diverged |= ~torch.isfinite(self.state.base_height)
+        flags = self.exception_flags()
+        self.exception = flags.any(0)
+        self.exception_kind = self.first_exception(flags)
         truncated = (self.episode_step >= self.max_episode_length) & ~self.exception
         self.success = truncated  # a whole episode without a fall
-        terminated = self.exception
         reward, parts = self.rewards.compute(self)
-        reward = torch.nan_to_num(reward, 0.0, 0.0, 0.0)
-        for name, value in parts.items():
-            self.episode_sums[name] += torch.nan_to_num(value, 0.0, 0.0, 0.0)
         self.velocity_error_sum += self.velocity_error()
-        done = terminated | truncated
-        for recorder in self.recorders:
-            recorder.capture(self, self.commands.unsqueeze(1), reward, parts, done)
-        info = self._episode_info(done, diverged)
-        self._resample_commands()
-        self.reset(done.nonzero().flatten().numpy())
-        return self.observations(), reward, terminated, truncated, info
+        return self._finish_step(reward, parts, self.exception, truncated, self.commands.unsqueeze(1))
 
     @staticmethod
     def scene_layout(cfg: dict) -> Go1Layout:
@@ -213,35 +187,30 @@ class LocomotionEnv:
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): the Go1's geom poses, its trunk, and its commanded
         and actual planar velocity in the world frame (`Go1Layout.scene`)."""
-        quat = self.qpos[:, 3:7]
+        qpos, qvel = self.sim.qpos, self.sim.qvel
+        quat = qpos[:, 3:7]
         bodies = self.model.geom_bodyid[self.drawn_geoms]
         command = np.concatenate([self.commands[:, :2].numpy(), np.zeros((self.num_envs, 1))], -1)
         frame = {
             "geom_xpos": self.geom_xpos[:, self.drawn_geoms],
             "geom_xquat": quat_multiply(self.body_xquat[:, bodies], self.model.geom_quat[self.drawn_geoms]),
-            "trunk_xyz": self.qpos[:, 0:3],
+            "trunk_xyz": qpos[:, 0:3],
             "trunk_quat": quat,
             "command_xy": rotate_into_world(quat, command)[:, :2],
-            "velocity_xy": self.qvel[:, 0:2],
+            "velocity_xy": qvel[:, 0:2],
         }
         return {name: torch.from_numpy(np.ascontiguousarray(value)) for name, value in frame.items()}
 
     def velocity_error(self) -> torch.Tensor:
         """|commanded - actual| planar velocity, m/s (E,)."""
-        return torch.linalg.vector_norm(self.commands[:, :2] - self.lin_vel[:, :2], dim=-1)
-
-    def _fallen(self) -> torch.Tensor:
-        fall = self.cfg["level"]["fall"]
-        tilt = torch.arccos((-self.gravity[:, 2]).clamp(-1.0, 1.0))
-        trunk_on_ground = self.trunk_z - go1.TRUNK_SIZE[2] / 2 < fall["trunk_clearance_m"]
-        return (self.base_height < fall["min_height_m"]) | (tilt > fall["max_tilt"]) | trunk_on_ground
+        return torch.linalg.vector_norm(self.commands[:, :2] - self.state.lin_vel[:, :2], dim=-1)
 
     def _update_air_time(self) -> None:
         """Seconds each foot has been off the ground; `first_contact` marks feet that land this step."""
         self.air_time += self.dt
-        self.first_contact = (self.air_time > self.dt) & self.foot_contact
+        self.first_contact = (self.air_time > self.dt) & self.state.foot_contact
         self.landed_air_time = self.air_time * self.first_contact
-        self.air_time = self.air_time * ~self.foot_contact
+        self.air_time = self.air_time * ~self.state.foot_contact
 
     def _push(self) -> None:
         """Every `push_interval_s`, a random change of each robot's horizontal velocity (m/s)."""
@@ -250,22 +219,36 @@ class LocomotionEnv:
         due = ((self.episode_step % every) == 0).numpy()
         if self.push_velocity > 0 and due.any():
             ids = np.flatnonzero(due)
-            self.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * self.push_velocity
+            self.sim.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * self.push_velocity
 
-    def _resample_commands(self) -> None:
+    def _before_reset(self, done: torch.Tensor) -> None:
+        """New commands every `resample_s`, after the step's were recorded."""
         every = max(1, round(self.command_ranges["resample_s"] / self.dt))
         due = (self.episode_step % every == 0) & (self.episode_step > 0)
         if due.any():
             self.commands[due] = self._sample_commands(int(due.sum()))
 
-    def _episode_info(self, done: torch.Tensor, diverged: torch.Tensor) -> dict:
+    def _episode_info(self, done: torch.Tensor) -> dict:
         steps = self.episode_step.clamp(min=1).float()
-        end = {**episode_end(self, done, diverged, self.exception), "velocity_error": self.velocity_error_sum / steps}
+        end = {**self.episode_end(done, self.exception), "velocity_error": self.velocity_error_sum / steps}
         return self.outcomes.info(end, self.episode_sums, {"velocity_error": end["velocity_error"]})
 
-    @staticmethod
-    def validate(cfg: dict) -> None:
-        """Check the robot and the reward terms before anything is built."""
+    @classmethod
+    def validate(cls, cfg: dict) -> None:
+        """Check the robot and the terms before anything is built."""
         if cfg["lowlevel"]["name"] != "go1":
             raise BadInput(f"level=low trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1")
-        RewardManager(cfg["reward"]["terms"])
+        cls.check_terms(cfg)
+
+
+def proprioceptive_observation(env) -> torch.Tensor:
+    """The Go1's own senses (`go1.proprioception`, 45 numbers), as the go1 backend computes them: (E, 45)."""
+    sensed = proprioception(
+        env.sim.qpos, env.sim.qvel, env.commands.numpy(), env.actions.numpy(), env.default_pose
+    ).astype(np.float32)
+    return torch.from_numpy(sensed)
+
+
+def body_linear_velocity(env) -> torch.Tensor:
+    """The trunk's body-frame linear velocity (3), which the robot cannot measure (critic only): (E, 3)."""
+    return env.state.lin_vel

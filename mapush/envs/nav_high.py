@@ -12,9 +12,9 @@ the reference-path point `level.path_direction_m` ahead of the object's nearest 
 should push in. Path following (`reward/high_nav.yaml`) measures the object's distance to the path.
 
 Action of robot i: 2 numbers in [-1, 1], its goal's offset from the robot in the target frame (x toward the final
-target) times `level.robot_goal_range_m`. Observation of robot i: the high level's centralized view
-(`high_observation`) | the robot's xy and yaw (cos, sin) in the target frame | its current goal relative to it, in
-the target frame | its one-hot index (width `high_obs_dim + 6 + A`).
+target) times `level.robot_goal_range_m`. Observation of robot i (`conf/level/high_nav.yaml`): the high level's
+centralized view (`high_observation`) | the robot's xy and yaw (cos, sin) in the target frame | its current goal
+relative to it, in the target frame | its one-hot index (width `high_obs_dim + 6 + A`).
 """
 
 from __future__ import annotations
@@ -22,9 +22,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from mapush.envs import observations as obs_terms
 from mapush.envs.high import HighPushEnv
-from mapush.envs.observations import high_obs_dim, high_observation, target_heading
+from mapush.envs.observations import high_obs_dim, target_heading
 from mapush.lowlevel.goto import go_to_point
 from mapush.planning.geometry import rotate
 
@@ -32,26 +31,20 @@ from mapush.planning.geometry import rotate
 class NavHighPushEnv(HighPushEnv):
     """E envs, each a team of A robots, each robot led by its own navigation goal (the H+L baselines)."""
 
-    needs_mid = False
-
-    def __init__(self, cfg: dict, mid=None, num_envs: int | None = None, planner=None):
+    def __init__(self, cfg: dict, mid=None, num_envs: int | None = None, planner=None, evaluation: bool = False):
         E, A = num_envs or cfg["num_envs"], cfg["task"]["num_agents"]
         self.robot_goal_xy = torch.zeros(E, A, 2)  # filled by reset()
         goto = cfg["level"]["goto"]
         self.goto_limits = torch.tensor(goto["limits"], dtype=torch.float32)
-        self.agent_one_hot = torch.eye(A).unsqueeze(0).expand(E, -1, -1)
         super().__init__(cfg, None, num_envs, planner)
 
-    def _policy_rows(self) -> int:
-        return self.num_agents  # one row per robot (MAPPO)
+    @staticmethod
+    def policy_rows(cfg: dict) -> int:
+        return cfg["task"]["num_agents"]  # one row per robot (MAPPO)
 
-    def reset(self, ids: np.ndarray) -> None:
-        """The high level's reset; every robot starts with its own position as its goal."""
-        if len(ids) == 0:
-            return
-        super().reset(ids)
-        t = torch.from_numpy(ids)
-        self.robot_goal_xy[t] = self.robot_xy[t]
+    def _started(self, t: torch.Tensor) -> None:
+        """Every robot starts with its own position as its goal."""
+        self.robot_goal_xy[t] = self.state.robot_xy[t]
         self.subgoal_xy[t] = self._push_direction_point()[t]
 
     def _push_direction_point(self) -> torch.Tensor:
@@ -61,15 +54,15 @@ class NavHighPushEnv(HighPushEnv):
     def _apply_action(self, actions: torch.Tensor) -> None:
         """Every robot's goal from its action (E, A, 2) in [-1, 1]; the marker shows the push direction point."""
         offset = actions.clamp(-1.0, 1.0) * self.cfg["level"]["robot_goal_range_m"]
-        self.robot_goal_xy = self.robot_xy + rotate(offset, target_heading(self))
+        self.robot_goal_xy = self.state.robot_xy + rotate(offset, target_heading(self))
         self.subgoal_xy = self._push_direction_point()
         self.sim.set_subgoal(np.arange(self.num_envs), self.subgoal_xy)
 
     def _commands(self) -> torch.Tensor:
         goto = self.cfg["level"]["goto"]
         return go_to_point(
-            self.robot_xy,
-            self.robot_yaw,
+            self.state.robot_xy,
+            self.state.robot_yaw,
             self.robot_goal_xy,
             self.goto_limits,
             goto["gain"],
@@ -81,18 +74,7 @@ class NavHighPushEnv(HighPushEnv):
         """The high level's frame plus every robot's navigation goal."""
         return {**super().scene_frame(), "robot_goal_xy": self.robot_goal_xy}
 
-    def observations(self) -> dict[str, torch.Tensor]:
-        """`policy` and `critic`: (E, A, d), the shared view plus each robot's own (module docstring)."""
-        heading = target_heading(self)
-        shared = high_observation(self).unsqueeze(1).expand(-1, self.num_agents, -1)
-        own_xy = rotate(self.robot_xy - self.object_xy.unsqueeze(1), -heading)
-        own_yaw = obs_terms.angle_features(self.robot_yaw - heading.unsqueeze(1))
-        own_goal = rotate(self.robot_goal_xy - self.robot_xy, -heading)
-        obs = torch.cat([shared, own_xy, own_yaw, own_goal, self.agent_one_hot], -1)
-        obs = torch.nan_to_num(obs, 0.0, 0.0, 0.0)
-        return {"policy": obs, "critic": obs}
-
 
 def nav_high_obs_dim(cfg: dict) -> int:
-    """Width of `NavHighPushEnv.observations` for a config."""
+    """Width of `NavHighPushEnv.observations` for a config (`conf/level/high_nav.yaml`)."""
     return high_obs_dim(cfg) + 6 + cfg["task"]["num_agents"]

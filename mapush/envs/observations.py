@@ -1,4 +1,6 @@
-"""Observations: the mid level's local view (actor) and global state (critic), the high level's centralized view.
+"""Observation terms: the mid level's local view (actor) and global state (critic), the high level's centralized
+view, and the H+L robots' own parts. Levels name them in `level.observations`; each returns (E, rows, d), or (E, d)
+shared by every policy row (`EnvCore.observations`).
 
 Angles are encoded as (cos, sin) pairs, so the policy never sees the 2 pi jump of a wrapped angle.
 """
@@ -43,10 +45,10 @@ def local_observation(env) -> torch.Tensor:
         Shape: (E, A, 6 + 4 (A - 1)).
     """
     E, A = env.num_envs, env.num_agents
-    xy, yaw = env.robot_xy, env.robot_yaw
+    xy, yaw = env.state.robot_xy, env.state.robot_yaw
     subgoal = to_agent_frame(env.subgoal_xy.unsqueeze(1).expand(E, A, 2), xy, yaw)
-    obj = to_agent_frame(env.object_xy.unsqueeze(1).expand(E, A, 2), xy, yaw)
-    parts = [subgoal, obj, angle_features(env.object_yaw.unsqueeze(1) - yaw)]
+    obj = to_agent_frame(env.state.object_xy.unsqueeze(1).expand(E, A, 2), xy, yaw)
+    parts = [subgoal, obj, angle_features(env.state.object_yaw.unsqueeze(1) - yaw)]
     if A > 1:
         others = env.other_agents  # (A, A-1)
         other_xy = to_agent_frame(xy[:, others], xy, yaw)  # (E, A, A-1, 2)
@@ -74,13 +76,13 @@ def global_observation(env) -> torch.Tensor:
     E, A = env.num_envs, env.num_agents
     state = torch.cat(
         [
-            env.object_xy,
-            angle_features(env.object_yaw),
-            env.object_vel,
+            env.state.object_xy,
+            angle_features(env.state.object_yaw),
+            env.state.object_vel,
             env.subgoal_xy,
-            env.robot_xy.flatten(1),
-            angle_features(env.robot_yaw).flatten(1),
-            env.robot_vel.flatten(1),
+            env.state.robot_xy.flatten(1),
+            angle_features(env.state.robot_yaw).flatten(1),
+            env.state.robot_vel.flatten(1),
             (env.episode_step.float() / env.max_episode_length).unsqueeze(1),
         ],
         -1,
@@ -90,7 +92,7 @@ def global_observation(env) -> torch.Tensor:
 
 def target_heading(env) -> torch.Tensor:
     """Direction from the object to the final target, rad (E,): the x axis of the target frame."""
-    to_target = env.target_xy - env.object_xy
+    to_target = env.target_xy - env.state.object_xy
     return torch.atan2(to_target[:, 1], to_target[:, 0])
 
 
@@ -107,23 +109,23 @@ def high_observation(env) -> torch.Tensor:
     heading = target_heading(env)
 
     def frame(points: torch.Tensor) -> torch.Tensor:  # (E, ..., 2) world -> target frame
-        return rotate(points - env.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2), -heading)
+        return rotate(points - env.state.object_xy.view(env.num_envs, *(1,) * (points.dim() - 2), 2), -heading)
 
-    vel_frame = rotate(env.object_vel[:, :2], -heading)
+    vel_frame = rotate(env.state.object_vel[:, :2], -heading)
     ahead = env.path_points_ahead(torch.tensor(observe["path_ahead_m"], dtype=torch.float32))
     parts = [
         env.target_distance.unsqueeze(-1),
-        angle_features(env.object_yaw - heading),
+        angle_features(env.state.object_yaw - heading),
         vel_frame,
         frame(env.subgoal_xy.unsqueeze(1)).flatten(1),
-        frame(env.robot_xy).flatten(1),
-        angle_features(env.robot_yaw - heading.unsqueeze(1)).flatten(1),
+        frame(env.state.robot_xy).flatten(1),
+        angle_features(env.state.robot_yaw - heading.unsqueeze(1)).flatten(1),
         frame(ahead).flatten(1),
     ]
     m = observe["obstacles"]
     if m:
         if env.num_obstacles:
-            dist = point_distance(env.object_xy.unsqueeze(1), env.obstacles).squeeze(1)  # (E, K)
+            dist = point_distance(env.state.object_xy.unsqueeze(1), env.obstacles).squeeze(1)  # (E, K)
             order = dist.argsort(-1)[:, :m]
             centres = env.obstacles[..., :2].gather(1, order.unsqueeze(-1).expand(-1, -1, 2))
             near = torch.cat(
@@ -144,3 +146,21 @@ def high_obs_dim(cfg: dict) -> int:
     """Width of `high_observation` for a config."""
     observe = cfg["level"]["observe"]
     return 8 + 4 * cfg["task"]["num_agents"] + 2 * len(observe["path_ahead_m"]) + 3 * observe["obstacles"]
+
+
+def own_pose_target_frame(env) -> torch.Tensor:
+    """Each robot's xy relative to the object and its yaw (cos, sin), in the target frame: (E, A, 4)."""
+    heading = target_heading(env)
+    own_xy = rotate(env.state.robot_xy - env.state.object_xy.unsqueeze(1), -heading)
+    own_yaw = angle_features(env.state.robot_yaw - heading.unsqueeze(1))
+    return torch.cat([own_xy, own_yaw], -1)
+
+
+def own_goal_target_frame(env) -> torch.Tensor:
+    """Each robot's navigation goal relative to it, in the target frame: (E, A, 2)."""
+    return rotate(env.robot_goal_xy - env.state.robot_xy, -target_heading(env))
+
+
+def agent_one_hot(env) -> torch.Tensor:
+    """Each robot's one-hot index: (E, A, A)."""
+    return env.agent_one_hot.expand(env.num_envs, -1, -1)

@@ -72,8 +72,8 @@ def proprioception(
     )
 
 
-def load_locomotion_policy(path: str | Path | None):
-    """The TorchScript locomotion policy at `path` (None: the shipped one); BadInput when there is none."""
+def locomotion_policy_file(path: str | Path | None) -> Path:
+    """The file of the locomotion policy at `path` (None: the shipped one); BadInput when there is none."""
     target = Path(path) if path else PRETRAINED
     if target.is_dir():
         target = target / "policy.pt"
@@ -81,7 +81,12 @@ def load_locomotion_policy(path: str | Path | None):
         hint = "train one with `mapush train level=low`, then lowlevel.policy=RUN_DIR/policy.pt"
         what = f"lowlevel.policy={str(path)!r} does not exist" if path else "no pretrained Go1 policy is shipped yet"
         raise BadInput(f"{what}; valid: a policy.pt of a level=low run ({hint})")
-    policy = torch.jit.load(str(target), map_location="cpu")
+    return target
+
+
+def load_locomotion_policy(path: str | Path | None):
+    """The TorchScript locomotion policy at `path` (None: the shipped one); BadInput when there is none."""
+    policy = torch.jit.load(str(locomotion_policy_file(path)), map_location="cpu")
     policy.eval()
     return policy
 
@@ -90,6 +95,11 @@ class Go1:
     """Legged Go1 robots walked by the locomotion policy; see the module docstring."""
 
     can_fall = True
+
+    @staticmethod
+    def check(cfg: dict) -> None:
+        """BadInput unless the config's locomotion policy exists (checked before anything is built)."""
+        locomotion_policy_file(cfg["policy"])
 
     def __init__(self, cfg: dict):
         self.cfg = cfg

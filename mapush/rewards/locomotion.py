@@ -1,7 +1,7 @@
 """Low-level (locomotion) reward terms: the usual legged ones. Each returns the unweighted term, (num_envs, 1).
 
-Terms read `LocomotionEnv`'s state after the physics step: body-frame `lin_vel`, `ang_vel`, `gravity`, `commands`,
-`torques`, `actions` / `last_actions`, foot contacts and speeds, and the exception flag.
+Terms read `LocomotionEnv`'s `state` after the physics step (body-frame `lin_vel`, `ang_vel`, `gravity`, `torques`,
+foot contacts and speeds), and the env's `commands`, `actions` / `last_actions`, landings and exception flag.
 """
 
 from __future__ import annotations
@@ -15,33 +15,33 @@ def _column(value: torch.Tensor) -> torch.Tensor:
 
 def lin_vel_tracking(env, sigma: float) -> torch.Tensor:
     """exp(-|v_cmd - v|^2 / sigma) over the planar body-frame velocity (m/s)."""
-    error = ((env.commands[:, :2] - env.lin_vel[:, :2]) ** 2).sum(-1)
+    error = ((env.commands[:, :2] - env.state.lin_vel[:, :2]) ** 2).sum(-1)
     return _column(torch.exp(-error / sigma))
 
 
 def yaw_rate_tracking(env, sigma: float) -> torch.Tensor:
     """exp(-(w_cmd - w_z)^2 / sigma), yaw rate in rad/s."""
-    return _column(torch.exp(-((env.commands[:, 2] - env.ang_vel[:, 2]) ** 2) / sigma))
+    return _column(torch.exp(-((env.commands[:, 2] - env.state.ang_vel[:, 2]) ** 2) / sigma))
 
 
 def vertical_velocity(env) -> torch.Tensor:
     """v_z^2, (m/s)^2: bouncing."""
-    return _column(env.lin_vel[:, 2] ** 2)
+    return _column(env.state.lin_vel[:, 2] ** 2)
 
 
 def roll_pitch_rate(env) -> torch.Tensor:
     """w_x^2 + w_y^2, (rad/s)^2: rocking."""
-    return _column((env.ang_vel[:, :2] ** 2).sum(-1))
+    return _column((env.state.ang_vel[:, :2] ** 2).sum(-1))
 
 
 def tilt(env) -> torch.Tensor:
     """g_x^2 + g_y^2 of the body-frame gravity direction: 0 upright, sin^2 of the tilt angle."""
-    return _column((env.gravity[:, :2] ** 2).sum(-1))
+    return _column((env.state.gravity[:, :2] ** 2).sum(-1))
 
 
 def joint_torques(env) -> torch.Tensor:
     """Sum of squared joint torques, (N m)^2."""
-    return _column((env.torques**2).sum(-1))
+    return _column((env.state.torques**2).sum(-1))
 
 
 def action_rate(env) -> torch.Tensor:
@@ -51,7 +51,7 @@ def action_rate(env) -> torch.Tensor:
 
 def foot_slip(env) -> torch.Tensor:
     """Sum over feet on the ground of their squared planar speed, (m/s)^2."""
-    return _column((env.feet_speed**2 * env.foot_contact).sum(-1))
+    return _column((env.state.feet_speed**2 * env.state.foot_contact).sum(-1))
 
 
 def feet_air_time(env, target_s: float) -> torch.Tensor:

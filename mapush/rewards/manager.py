@@ -2,30 +2,9 @@
 
 from __future__ import annotations
 
-import importlib
-import inspect
-
 import torch
 
-from mapush.errors import BadInput
-
-
-def resolve_term(path: str):
-    """Import `module:function`; a bad path is a BadInput naming the module's public functions."""
-    module_name, _, func_name = path.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as err:
-        raise BadInput(f"reward function module {module_name!r} cannot be imported ({err})") from None
-    func = getattr(module, func_name, None)
-    if not callable(func):
-        valid = sorted(
-            n
-            for n, f in vars(module).items()
-            if inspect.isfunction(f) and not n.startswith("_") and f.__module__ == module.__name__
-        )
-        raise BadInput(f"unknown reward function {path!r}; valid in {module_name}: {', '.join(valid)}")
-    return func
+from mapush.terms import bind_term
 
 
 class RewardManager:
@@ -45,17 +24,8 @@ class RewardManager:
         for name, term in terms_cfg.items():
             if term is None or term.get("weight", 0.0) == 0.0:
                 continue
-            func = resolve_term(term["func"])
-            params = dict(term.get("params") or {})
-            signature = inspect.signature(func).parameters
-            wanted = list(signature)[1:]
-            # a param with a default may be left out: the default keeps runs saved before it existed as they were
-            required = {p for p in wanted if signature[p].default is inspect.Parameter.empty}
-            if not required <= set(params) <= set(wanted):
-                raise BadInput(
-                    f"reward term {name!r} ({term['func']}) takes params {wanted}, config gives {sorted(params)}"
-                )
-            self.terms[name] = (func, float(term["weight"]), params)
+            bound = bind_term("reward.terms", name, term)
+            self.terms[name] = (bound.func, float(term["weight"]), bound.params)
             if term.get("terminal", False):
                 self.terminal.add(name)
 

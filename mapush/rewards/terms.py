@@ -1,6 +1,6 @@
 """Mid-level reward terms (paper App. B). Each returns the unweighted term, Shape: (num_envs, num_agents).
 
-Terms read the env's current state (`env.object_xy`, `env.robot_xy`, ...) and flags (`env.success`,
+Terms read the env's state (`env.state`, a `PushState`: `object_xy`, `robot_xy`, ...) and flags (`env.success`,
 `env.exception`); they run after the physics step and before finished envs are reset.
 """
 
@@ -36,27 +36,27 @@ def exception(env) -> torch.Tensor:
 
 def agent_proximity(env) -> torch.Tensor:
     """sum over the other robots j of 1 / (0.02 + d_ij / 3), d_ij the distance between robot centres in m."""
-    near = 1.0 / (0.02 + env.robot_distance / 3.0)
+    near = 1.0 / (0.02 + env.state.robot_distance / 3.0)
     return near.sum(-1) - 1.0 / 0.02  # drop j = i, where d_ii = 0
 
 
 def object_approach(env) -> torch.Tensor:
     """-(d_i + 0.5)^2, d_i the distance from robot i to the object centre in m."""
-    d = torch.linalg.vector_norm(env.robot_xy - env.object_xy.unsqueeze(1), dim=-1)
+    d = torch.linalg.vector_norm(env.state.robot_xy - env.state.object_xy.unsqueeze(1), dim=-1)
     return -((d + 0.5) ** 2)
 
 
 def object_moving(env, min_speed: float) -> torch.Tensor:
     """1 while the object's planar speed exceeds `min_speed` m/s; shared."""
-    return _shared(env, torch.linalg.vector_norm(env.object_vel[:, :2], dim=-1) > min_speed)
+    return _shared(env, torch.linalg.vector_norm(env.state.object_vel[:, :2], dim=-1) > min_speed)
 
 
 def occlusion_based(env) -> torch.Tensor:
     """OCB (paper III-E-1): inward normal of the object's hull at the point closest to robot i, dotted with the
     unit vector from the object to the subgoal. +1 behind the object (the pushing side), -1 in front of it."""
-    to_goal = env.subgoal_xy - env.object_xy
+    to_goal = env.subgoal_xy - env.state.object_xy
     to_goal = to_goal / torch.linalg.vector_norm(to_goal, dim=-1, keepdim=True).clamp_min(1e-6)
-    normal = hull_inward_normal(env.hull, env.object_xy, env.object_yaw, env.robot_xy)
+    normal = hull_inward_normal(env.hull, env.state.object_xy, env.state.object_yaw, env.state.robot_xy)
     return (normal * to_goal.unsqueeze(1)).sum(-1)
 
 
@@ -120,7 +120,7 @@ def path_following(env, point: str = "subgoal") -> torch.Tensor:
     the reference path. The configs name `point`; the default is for runs saved before it existed."""
     if point not in PATH_FOLLOWERS:
         raise BadInput(f"path_following point {point!r}; valid: {', '.join(PATH_FOLLOWERS)}")
-    xy = env.subgoal_xy if point == "subgoal" else env.object_xy
+    xy = env.subgoal_xy if point == "subgoal" else env.state.object_xy
     return _shared(env, 1.0 / (1.0 + distance_to_path(env.path, xy)))
 
 

@@ -35,11 +35,6 @@ def rgba(name: str, index: int = 0) -> np.ndarray:
 COMMAND = np.array([*RGBA["subgoal"][:3], 1.0], dtype=np.float32)  # the commanded velocity, opaque green
 
 
-def env_batch(env):
-    """The `mujoco.batch.Batch` of an env: the pushing levels keep it in their `BatchSim`, the low level itself."""
-    return env.sim.batch if hasattr(env, "sim") else env.batch
-
-
 def env_row(env, env_id: int) -> dict[str, np.ndarray]:
     """Env `env_id`'s row of `env.scene_frame()` (the episode files' per-step picture) as numpy arrays."""
     return {name: value[env_id].numpy() for name, value in env.scene_frame().items()}
@@ -55,7 +50,7 @@ class EnvView:
     """
 
     def __init__(self, env, cfg: dict, width: int = 640, height: int = 480):
-        self.model = env_batch(env).get_model(0)  # a copy: the changes below stay out of the simulation
+        self.model = env.sim.batch.get_model(0)  # a copy: the changes below stay out of the simulation
         self.model.vis.global_.offwidth = max(int(self.model.vis.global_.offwidth), width)
         self.model.vis.global_.offheight = max(int(self.model.vis.global_.offheight), height)
         self.model.vis.headlight.ambient[:], self.model.vis.headlight.diffuse[:] = HEADLIGHT
@@ -74,7 +69,7 @@ class EnvView:
 
     def load(self, env, env_id: int = 0) -> dict[str, np.ndarray]:
         """Copy env `env_id`'s state into `data` (positions follow by `mj_forward`); returns its scene row."""
-        env_batch(env).get_data(env_id, self.data)
+        env.sim.batch.get_data(env_id, self.data)
         mujoco.mj_forward(self.model, self.data)
         return env_row(env, env_id)
 

@@ -1,0 +1,80 @@
+"""What the pushing levels (mid, mid_long, high, high_nav) share on top of the env core: the low-level backend
+driving A robots in a `PushSim`, the object's hull, the state (`PushState`), divergence, and what viewers draw."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mapush.envs.core import EnvCore
+from mapush.envs.resets import check_agent_count
+from mapush.errors import BadInput
+from mapush.logging.scene import SceneLayout
+from mapush.lowlevel import BACKENDS
+from mapush.sim.push import PushSim, PushState
+from mapush.sim.shapes import object_hull
+
+
+class PushEnv(EnvCore):
+    """E envs x A robots and one object each; obstacle blocks where the level has `level.obstacles`.
+
+    Args:
+        cfg: the composed config as a plain dict (task, level, lowlevel, reward, sim, seed).
+        num_envs: overrides `cfg["num_envs"]` (eval and bench use their own counts).
+        rows: policy rows per env.
+        decision_steps: simulation steps per policy step (the high level's decisions hold several).
+    """
+
+    state: PushState
+
+    def __init__(self, cfg: dict, num_envs: int | None, rows: int, decision_steps: int = 1):
+        self.validate(cfg)
+        task = cfg["task"]
+        E = num_envs or cfg["num_envs"]
+        obstacles = cfg["level"].get("obstacles") or {"count": 0, "size": (1.0, 1.0, 1.0)}
+        self.num_obstacles = obstacles["count"]
+        self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
+        sim = PushSim(cfg["sim"], task, self.lowlevel, E, obstacles["count"], obstacles["size"])
+        super().__init__(cfg, sim, E, task["num_agents"], rows, sim.dt * decision_steps)
+        self.sim_dt = sim.dt
+        self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
+        A = self.num_agents
+        self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A  # (A, A-1)
+        self.agent_one_hot = torch.eye(A).unsqueeze(0)  # (1, A, A)
+        self.subgoal_xy = torch.zeros(E, 2)
+
+    @classmethod
+    def validate(cls, cfg: dict) -> None:
+        """Check a config before anything is built or written: low-level backend, agent count, the terms."""
+        if cfg["lowlevel"]["name"] not in BACKENDS:
+            raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
+        BACKENDS[cfg["lowlevel"]["name"]].check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
+        check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
+        cls.check_terms(cfg)
+
+    def _read_state(self) -> None:
+        self.state = self.sim.read()
+
+    def _divergence(self, failed: np.ndarray) -> torch.Tensor:
+        """(E,) envs whose simulation failed this step (`failed` ids) or whose state is no longer finite."""
+        diverged = torch.zeros(self.num_envs, dtype=torch.bool)
+        diverged[torch.from_numpy(failed)] = True
+        finite = torch.isfinite(self.state.object_xy).all(-1) & torch.isfinite(self.state.robot_xy).flatten(1).all(-1)
+        return diverged | ~finite
+
+    @staticmethod
+    def scene_layout(cfg: dict) -> SceneLayout:
+        """What the episode logs draw of this level (the arena, object and robots of `cfg`)."""
+        return SceneLayout.from_config(cfg)
+
+    def scene_frame(self) -> dict[str, torch.Tensor]:
+        """What a viewer draws of every env now (before resets): poses (E, ...) and the subgoal (E, 2)."""
+        s = self.state
+        return {
+            "object_xy": s.object_xy,
+            "object_z": s.object_z,
+            "object_yaw": s.object_yaw,
+            "robot_xy": s.robot_xy,
+            "robot_yaw": s.robot_yaw,
+            "subgoal_xy": self.subgoal_xy,
+        }

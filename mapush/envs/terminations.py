@@ -1,0 +1,54 @@
+"""Exception terms (paper III-C: r_exception): each returns (E,) flags of the envs where it fires this step.
+
+A level's `level.exceptions` names its terms in order; the first that fires names the exception
+(`exception_kind`). Terms read the env's state after the physics step, before any reset.
+"""
+
+from __future__ import annotations
+
+import torch
+
+
+def diverged(env) -> torch.Tensor:
+    """The simulation failed this step, or its state is no longer finite (the step sets `env.diverged`)."""
+    return env.diverged
+
+
+def robot_collision(env, distance_m: float) -> torch.Tensor:
+    """Two robot centres closer than `distance_m`."""
+    pair = env.state.robot_distance + torch.eye(env.num_agents) * 1e9
+    return (pair < distance_m).flatten(1).any(-1)
+
+
+def object_tilt(env, max_rad: float) -> torch.Tensor:
+    """The object tilted further than `max_rad` from upright."""
+    return env.state.object_tilt > max_rad
+
+
+def robot_tilt(env, max_rad: float) -> torch.Tensor:
+    """A robot's roll or pitch beyond `max_rad` (a fall, for backends that can fall)."""
+    return (env.state.robot_tilt > max_rad).any(-1)
+
+
+def robot_hit_obstacle(env, tolerance_m: float) -> torch.Tensor:
+    """A robot's footprint within `tolerance_m` of an obstacle block."""
+    return (env.robot_obstacle_gap < tolerance_m).flatten(1).any(-1)
+
+
+def object_hit_obstacle(env, tolerance_m: float) -> torch.Tensor:
+    """The object's hull within `tolerance_m` of an obstacle block."""
+    return (env.object_obstacle_gap < tolerance_m).any(-1)
+
+
+def planner_failure(env) -> torch.Tensor:
+    """OMPL found no valid path for this episode (its path is a straight line)."""
+    return env.plan_failed
+
+
+def fall(env, min_height_m: float, max_tilt: float, trunk_clearance_m: float) -> torch.Tensor:
+    """A Go1 down: trunk origin below `min_height_m`, tilted beyond `max_tilt` rad, or its trunk box bottom closer
+    than `trunk_clearance_m` to the ground."""
+    s = env.state
+    tilt = torch.arccos((-s.gravity[:, 2]).clamp(-1.0, 1.0))
+    trunk_on_ground = s.trunk_z - env.trunk_half_height < trunk_clearance_m
+    return (s.base_height < min_height_m) | (tilt > max_tilt) | trunk_on_ground

@@ -1,0 +1,63 @@
+"""Config terms: a named function `module:function` with its params, as the reward, observation and exception
+sections of a level's config name them (`{name: {func, params, ...}}`). Resolved and checked once, when the env
+is built: a bad path or a params mismatch is one BadInput line naming the valid choices."""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from mapush.errors import BadInput
+
+
+def resolve_term(path: str) -> Callable:
+    """Import `module:function`; a bad path is a BadInput naming the module's public functions."""
+    module_name, _, func_name = path.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise BadInput(f"term function module {module_name!r} cannot be imported ({err})") from None
+    func = getattr(module, func_name, None)
+    if not callable(func):
+        valid = sorted(
+            n
+            for n, f in vars(module).items()
+            if inspect.isfunction(f) and not n.startswith("_") and f.__module__ == module.__name__
+        )
+        raise BadInput(f"unknown term function {path!r}; valid in {module_name}: {', '.join(valid)}")
+    return func
+
+
+@dataclass(frozen=True)
+class Term:
+    """One resolved term: `func(env, **params)`."""
+
+    name: str
+    func: Callable
+    params: dict = field(default_factory=dict)
+
+    def __call__(self, env):
+        return self.func(env, **self.params)
+
+
+def bind_term(section: str, name: str, spec: dict) -> Term:
+    """The term `name` of a config section (e.g. `reward.terms`) from `{func, params}`, its params checked against
+    the function's signature. A param with a default may be left out: the default keeps runs saved before it
+    existed as they were."""
+    if not isinstance(spec, dict) or "func" not in spec:
+        raise BadInput(f"{section}.{name} is {spec!r}; valid: a mapping with func: module:function and params")
+    func = resolve_term(spec["func"])
+    params = dict(spec.get("params") or {})
+    signature = inspect.signature(func).parameters
+    wanted = list(signature)[1:]
+    required = {p for p in wanted if signature[p].default is inspect.Parameter.empty}
+    if not required <= set(params) <= set(wanted):
+        raise BadInput(f"{section}.{name} ({spec['func']}) takes params {wanted}, config gives {sorted(params)}")
+    return Term(name, func, params)
+
+
+def bind_terms(section: str, specs: dict) -> list[Term]:
+    """Every term of a config section, in its order; a null entry drops the term."""
+    return [bind_term(section, name, spec) for name, spec in specs.items() if spec is not None]
