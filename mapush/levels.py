@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,11 +15,13 @@ from omegaconf import DictConfig
 
 from mapush.config import to_plain
 from mapush.envs.high import HighPushEnv
-from mapush.envs.low import LocomotionEnv
+from mapush.envs.low import LocomotionEnv, locomotion_model
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv
 from mapush.errors import BadInput
+from mapush.logging.go1_scene import Go1Layout
+from mapush.logging.scene import SceneLayout
 from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for
@@ -31,12 +34,18 @@ class Level:
     """A trainable level: its env class and what `make_env` must hand it besides the config."""
 
     env: type
+    layout: Callable[[dict], object] = SceneLayout.from_config  # what episode logs draw of a config's scene
     frozen_mid: bool = False  # drives the robots through a frozen mid level (`mid=RUN_DIR`)
     planner: bool = False  # plans reference paths with OMPL (`level.path.plan_at_eval`, `plan_in_training`)
 
 
+def go1_layout(cfg: dict) -> Go1Layout:
+    """What the low level's episode logs draw: the Go1's geoms."""
+    return Go1Layout.from_model(locomotion_model(cfg))
+
+
 LEVELS = {
-    "low": Level(LocomotionEnv),
+    "low": Level(LocomotionEnv, layout=go1_layout),
     "mid": Level(MidPushEnv),
     "mid_long": Level(LongMidPushEnv),
     "high": Level(HighPushEnv, frozen_mid=True, planner=True),
@@ -51,6 +60,11 @@ def level_of(cfg: dict) -> Level:
     if name not in LEVELS:
         raise BadInput(f"level {name!r} cannot be trained yet; valid: {', '.join(LEVELS)}")
     return LEVELS[name]
+
+
+def scene_layout(cfg: dict):
+    """What the episode logs of a config's level draw: the arena, object and robots (`SceneLayout`), or the Go1."""
+    return level_of(cfg).layout(cfg)
 
 
 def env_class(cfg: dict) -> type:

@@ -9,7 +9,7 @@ from omegaconf import DictConfig
 
 from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.errors import BadInput
-from mapush.levels import build, checked
+from mapush.levels import build, checked, scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
@@ -85,7 +85,7 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
 
 def attach_episode_recorder(cfg: dict, env, path: Path, every_steps: int) -> EpisodeRecorder:
     """Record env 0's next whole episode after every `every_steps` env steps into `path` (training episodes)."""
-    recorder = EpisodeRecorder(path, env.scene_layout(cfg), list(env.rewards.terms), env.exception_names)
+    recorder = EpisodeRecorder(path, scene_layout(cfg), list(env.rewards.terms), env.exception_names)
     recorder.watch([0], env.frame_dt, "training", from_start=False, every_steps=every_steps)
     env.recorders.append(recorder)
     return recorder

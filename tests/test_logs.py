@@ -23,6 +23,7 @@ from google.protobuf import descriptor_pb2
 from mcap.reader import make_reader
 
 from mapush.envs.mid import MidPushEnv
+from mapush.levels import scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.layout import episode_layout
 from mapush.logging.mcap_files import summary
@@ -333,6 +334,7 @@ KILL_EPISODES = """
 import sys, torch
 from mapush.config import compose_config, to_plain
 from mapush.envs.mid import MidPushEnv
+from mapush.levels import scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.scene import SceneLayout
 cfg = to_plain(compose_config(["debug=smoke", "level.episode_length_s=0.2"]))
@@ -581,7 +583,7 @@ def test_the_low_level_scene_draws_every_go1_geom_where_the_simulation_has_it(tm
 
     cfg = cfg_for("level=low", "level.episode_length_s=0.2")
     env = LocomotionEnv(cfg, num_envs=2, evaluation=True)
-    recorder = EpisodeRecorder(tmp_path / "e.mcap", env.scene_layout(cfg), list(env.rewards.terms), env.exception_names)
+    recorder = EpisodeRecorder(tmp_path / "e.mcap", scene_layout(cfg), list(env.rewards.terms), env.exception_names)
     recorder.watch([1], env.dt, "test", from_start=True)
     env.recorders.append(recorder)
     env.step(torch.zeros(2, 1, 12))

@@ -28,11 +28,11 @@ import torch
 
 from mapush.envs.core import EnvCore
 from mapush.errors import BadInput
-from mapush.logging.go1_scene import Go1Layout, drawn_geom_ids, quat_multiply
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
 from mapush.lowlevel.go1_model import standalone_spec
 from mapush.sim.core import BatchSim
+from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
 
 def locomotion_model(cfg: dict) -> mujoco.MjModel:
@@ -178,11 +178,6 @@ class LocomotionEnv(EnvCore):
         reward, parts = self.rewards.compute(self)
         self.velocity_error_sum += self.velocity_error()
         return self._finish_step(reward, parts, self.exception, truncated, self.commands.unsqueeze(1))
-
-    @staticmethod
-    def scene_layout(cfg: dict) -> Go1Layout:
-        """What the episode logs draw of this level: the Go1's geoms."""
-        return Go1Layout.from_model(locomotion_model(cfg))
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): the Go1's geom poses, its trunk, and its commanded

@@ -9,7 +9,6 @@ import torch
 from mapush.envs.core import EnvCore
 from mapush.envs.resets import check_agent_count
 from mapush.errors import BadInput
-from mapush.logging.scene import SceneLayout
 from mapush.lowlevel import BACKENDS
 from mapush.sim.push import PushSim, PushState
 from mapush.sim.shapes import object_hull
@@ -61,11 +60,6 @@ class PushEnv(EnvCore):
         diverged[torch.from_numpy(failed)] = True
         finite = torch.isfinite(self.state.object_xy).all(-1) & torch.isfinite(self.state.robot_xy).flatten(1).all(-1)
         return diverged | ~finite
-
-    @staticmethod
-    def scene_layout(cfg: dict) -> SceneLayout:
-        """What the episode logs draw of this level (the arena, object and robots of `cfg`)."""
-        return SceneLayout.from_config(cfg)
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): poses (E, ...) and the subgoal (E, 2)."""

@@ -18,7 +18,7 @@ import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.envs.core import exception_names
-from mapush.levels import build_for_eval, env_class
+from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.rewards.manager import RewardManager
@@ -185,7 +185,7 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
 
 def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
     """The episode file's recorder (unless `log.eval_episodes` is 0) and the live view when asked for."""
-    layout, terms = env_class(cfg).scene_layout(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
+    layout, terms = scene_layout(cfg), list(RewardManager(cfg["reward"]["terms"]).terms)
     exceptions = exception_names(cfg)
     recorders: list = []
     if int(cfg["log"]["eval_episodes"]) > 0:

@@ -46,8 +46,8 @@ def _json_schema(title: str, properties: dict) -> Schema:
 class EpisodeChannels:
     """The episode topics in one Foxglove context (a file, a live server, or both).
 
-    `layout` draws the scene: a pushing level's `SceneLayout` or the low level's `Go1Layout` (the env class's
-    `scene_layout(cfg)`); both give `scene(frame, t_ns)`, `transforms(frame, t_ns)` and `num_agents`.
+    `layout` draws the scene: a pushing level's `SceneLayout` or the low level's `Go1Layout`
+    (`mapush.levels.scene_layout(cfg)`); both give `scene(frame, t_ns)`, `transforms(frame, t_ns)` and `num_agents`.
     """
 
     def __init__(self, context: Context, layout, term_names: list[str]):

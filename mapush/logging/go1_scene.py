@@ -26,26 +26,12 @@ from foxglove.messages import (
 )
 
 from mapush.logging.scene import WORLD, robot_frame, scene_entity, timestamp
+from mapush.sim.geoms import drawn_geom_ids
 
 COMMAND = Color(r=0.2, g=0.85, b=0.35, a=1.0)
 VELOCITY = Color(r=1.0, g=1.0, b=1.0, a=1.0)
 ARROW_HEIGHT = 0.25  # m above the trunk
 ARROW_PER_MPS = 1.0  # m of shaft per m/s
-
-
-def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton products a * b of (w, x, y, z) quaternions, broadcast over leading axes."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        -1,
-    )
 
 
 def _pose(xyz: np.ndarray, quat: np.ndarray) -> Pose:
@@ -67,11 +53,6 @@ def _arrow(origin: np.ndarray, planar: np.ndarray, color: Color) -> ArrowPrimiti
         head_diameter=0.05,
         color=color,
     )
-
-
-def drawn_geom_ids(model: mujoco.MjModel) -> tuple[int, ...]:
-    """The geoms a scene draws, in id order: all but the floor plane."""
-    return tuple(g for g in range(model.ngeom) if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE)
 
 
 @dataclass(frozen=True)
