@@ -74,7 +74,7 @@ def record_episode(cfg: dict, path: Path, actions: torch.Tensor, steps: int) -> 
 def test_metrics_round_trip(tmp_path):
     (tmp_path / "meta.json").write_text(json.dumps({"commit": "abc123", "dirty": False}))
     (tmp_path / "config.yaml").write_text("seed: 0\n")
-    writer = McapLogWriter(str(tmp_path), num_agents=2, progress=False)
+    writer = McapLogWriter(str(tmp_path), rows_per_env=2, progress=False)
     for it in range(3):
         writer.add_scalar("Metrics/success_rate", 0.1 * it, it)
         writer.add_scalar("Loss/learning_rate", torch.tensor(1e-3), it)  # rsl-rl passes 0-d tensors too

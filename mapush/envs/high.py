@@ -23,7 +23,7 @@ from mapush.envs.core import exception_names
 from mapush.envs.push import PushEnv
 from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
-from mapush.planning.geometry import corners, near_gaps, rectangles, rotate, transform
+from mapush.planning.geometry import near_gaps, rectangles, rotate, transform
 from mapush.planning.paths import nearest_index, path_spacing, random_curved_paths
 from mapush.sim.shapes import object_radius
 
@@ -54,8 +54,6 @@ class HighPushEnv(PushEnv):
         self.inner_step = torch.zeros(E, dtype=torch.long)  # mid-level steps; `episode_step` counts decisions
         self.target_xy = torch.zeros(E, 2)
         self.path = torch.zeros(E, level["path"]["points"], 2)
-        self.obstacles = torch.zeros(E, self.num_obstacles, 5)
-        self.obstacle_corners = torch.zeros(E, self.num_obstacles, 4, 2)  # fixed per episode, set at reset
         self.target_distance = torch.zeros(E)
         self.plan_failed = torch.zeros(E, dtype=torch.bool)
         # `exception`: an exception in the latest decision (the penalty); `failed`: a terminal one, which ends the
@@ -116,13 +114,6 @@ class HighPushEnv(PushEnv):
         self.failed[t] = False
         self.exception_kind[t] = -1
         self.exception_decisions[t] = 0.0
-
-    def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
-        """Place the obstacles (n, K, 5) of envs `ids`, in the simulation and in the env's geometry."""
-        t = torch.from_numpy(ids)
-        self.obstacles[t] = obstacles
-        self.obstacle_corners[t] = corners(obstacles)
-        self.sim.set_obstacles(ids, obstacles)
 
     def _plan(self, start, target, obstacles, points) -> tuple[torch.Tensor, torch.Tensor]:
         """OMPL paths for each env (a straight line where planning fails, which ends that episode at once)."""

@@ -13,16 +13,13 @@ import torch
 
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.resets import sample_high_layout, sample_obstacles
-from mapush.planning.geometry import corners
 
 
 class LongMidPushEnv(MidPushEnv):
     """E envs x A robots pushing an object to a target 10+ m away through obstacles, with no high level."""
 
     def __init__(self, cfg: dict, num_envs: int | None = None, evaluation: bool = False):
-        E, K = num_envs or cfg["num_envs"], cfg["level"]["obstacles"]["count"]
-        self.target_xy = torch.zeros(E, 2)
-        self.obstacle_corners = torch.zeros(E, K, 4, 2)
+        self.target_xy = torch.zeros(num_envs or cfg["num_envs"], 2)
         super().__init__(cfg, num_envs, evaluation)
 
     def _sample_layout(self, n: int) -> dict[str, torch.Tensor]:
@@ -36,8 +33,7 @@ class LongMidPushEnv(MidPushEnv):
         super()._started(t)
         self.target_xy[t] = self.subgoal_xy[t]
         obstacles = sample_obstacles(self.generator, self.cfg, self.state.object_xy[t], self.target_xy[t], None)
-        self.obstacle_corners[t] = corners(obstacles)
-        self.sim.set_obstacles(t.numpy(), obstacles)
+        self.set_obstacles(t.numpy(), obstacles)
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """The mid env's frame plus the final target and the obstacles' footprints."""

@@ -10,6 +10,7 @@ from mapush.envs.core import EnvCore
 from mapush.envs.resets import check_agent_count
 from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS
+from mapush.planning.geometry import corners
 from mapush.sim.push import PushSim, PushState
 from mapush.sim.shapes import object_hull
 
@@ -41,6 +42,15 @@ class PushEnv(EnvCore):
         self.other_agents = (torch.arange(A).unsqueeze(1) + torch.arange(1, A).unsqueeze(0)) % A  # (A, A-1)
         self.agent_one_hot = torch.eye(A).unsqueeze(0)  # (1, A, A)
         self.subgoal_xy = torch.zeros(E, 2)
+        self.obstacles = torch.zeros(E, self.num_obstacles, 5)  # (x, y, yaw, size x, size y) of each block
+        self.obstacle_corners = torch.zeros(E, self.num_obstacles, 4, 2)  # their footprints, fixed per episode
+
+    def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
+        """Place the obstacles (n, K, 5) of envs `ids`, in the simulation and in the env's geometry."""
+        t = torch.from_numpy(ids)
+        self.obstacles[t] = obstacles
+        self.obstacle_corners[t] = corners(obstacles)
+        self.sim.set_obstacles(ids, obstacles)
 
     @classmethod
     def validate(cls, cfg: dict) -> None:

@@ -50,7 +50,7 @@ class McapLogWriter(LogWriter):
         log_dir: the run dir (given by rsl-rl's Logger).
         filename: MCAP file name inside the run dir.
         total_iterations: the run's final iteration count, for the time-left estimate.
-        num_agents: rows per env, to turn rsl-rl's row-steps/s into env-steps/s.
+        rows_per_env: policy rows per env, to turn rsl-rl's row-steps/s into env-steps/s.
         progress: print the progress line to stderr.
     """
 
@@ -59,7 +59,7 @@ class McapLogWriter(LogWriter):
         log_dir: str,
         filename: str = "metrics.mcap",
         total_iterations: int = 0,
-        num_agents: int = 1,
+        rows_per_env: int = 1,
         progress: bool = True,
     ):
         self.path = next_free_path(os.path.join(log_dir, filename))
@@ -69,7 +69,7 @@ class McapLogWriter(LogWriter):
         self._schema = self._writer.register_schema("mapush.Scalar", "jsonschema", json.dumps(SCALAR_SCHEMA).encode())
         self._channels: dict[str, int] = {}
         self._latest: dict[str, float] = {}
-        self.total_iterations, self.num_agents, self.progress = total_iterations, num_agents, progress
+        self.total_iterations, self.rows_per_env, self.progress = total_iterations, rows_per_env, progress
         self._started = time.time()
         self._first_iteration: int | None = None
         self._attach_run_files(log_dir)
@@ -105,7 +105,7 @@ class McapLogWriter(LogWriter):
         )
         self._latest[tag] = value
         if tag == "Perf/total_fps":
-            self.add_scalar("Perf/env_steps_per_s", value / self.num_agents, global_step)
+            self.add_scalar("Perf/env_steps_per_s", value / self.rows_per_env, global_step)
 
     def latest(self, tag: str) -> float | None:
         """The last value recorded for `tag` (this iteration's, if it was logged), or None."""

@@ -68,14 +68,14 @@ class MapushRunner(OnPolicyRunner):
         self.retention.saved(Path(path), score)
 
 
-def train_cfg_for(cfg: dict, num_agents: int, total_iterations: int) -> dict:
+def train_cfg_for(cfg: dict, rows_per_env: int, total_iterations: int) -> dict:
     """The rsl-rl runner dict: `algo` as configured, plus mapush's MCAP log writer."""
     train_cfg = copy.deepcopy(cfg["algo"])  # rsl-rl mutates what it is given
     train_cfg["logger"] = {
         "class_name": "mapush.logging.metrics:McapLogWriter",
         "filename": "metrics.mcap",
         "total_iterations": total_iterations,
-        "num_agents": num_agents,
+        "rows_per_env": rows_per_env,
         "progress": bool(cfg["train"]["progress"]),
     }
     return train_cfg

@@ -16,14 +16,14 @@ def to_rows(x: torch.Tensor) -> torch.Tensor:
     return x.reshape(x.shape[0] * x.shape[1], *x.shape[2:])
 
 
-def from_rows(x: torch.Tensor, num_agents: int) -> torch.Tensor:
+def from_rows(x: torch.Tensor, rows_per_env: int) -> torch.Tensor:
     """(E*A, ...) -> (E, A, ...); the inverse of `to_rows`."""
-    return x.reshape(x.shape[0] // num_agents, num_agents, *x.shape[1:])
+    return x.reshape(x.shape[0] // rows_per_env, rows_per_env, *x.shape[1:])
 
 
-def env_flags_to_rows(flags: torch.Tensor, num_agents: int) -> torch.Tensor:
+def env_flags_to_rows(flags: torch.Tensor, rows_per_env: int) -> torch.Tensor:
     """A per-env flag (E,) repeated for each of its agents: (E*A,)."""
-    return flags.repeat_interleave(num_agents)
+    return flags.repeat_interleave(rows_per_env)
 
 
 class AgentRowsVecEnv(VecEnv):
@@ -36,8 +36,8 @@ class AgentRowsVecEnv(VecEnv):
 
     def __init__(self, env, device: str = "cpu"):
         self.env = env
-        self.num_agents = env.policy_agents  # policy rows per env: every robot (mid), one per team (high)
-        self.num_envs = env.num_envs * self.num_agents
+        self.rows_per_env = env.policy_agents  # every robot (mid), one per team (high)
+        self.num_envs = env.num_envs * self.rows_per_env
         self.num_actions = env.num_actions  # per row: (vx, vy, yaw rate) for the mid level, 2 for the high level
         self.max_episode_length = env.max_episode_length
         self.device = device
@@ -48,11 +48,11 @@ class AgentRowsVecEnv(VecEnv):
     @property
     def episode_length_buf(self) -> torch.Tensor:
         """Current episode step of every row. Shape: (E*A,)."""
-        return env_flags_to_rows(self.env.episode_step, self.num_agents)
+        return env_flags_to_rows(self.env.episode_step, self.rows_per_env)
 
     @episode_length_buf.setter
     def episode_length_buf(self, value: torch.Tensor) -> None:
-        self.env.episode_step[:] = from_rows(value.cpu(), self.num_agents)[:, 0]
+        self.env.episode_step[:] = from_rows(value.cpu(), self.rows_per_env)[:, 0]
 
     def _to_tensordict(self, obs: dict[str, torch.Tensor]) -> TensorDict:
         return TensorDict({k: to_rows(v).to(self.device) for k, v in obs.items()}, batch_size=[self.num_envs])
@@ -63,9 +63,9 @@ class AgentRowsVecEnv(VecEnv):
 
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         """Step with actions (E*A, 3); returns obs, rewards (E*A,), dones (E*A,), extras (time_outs, log)."""
-        obs, reward, terminated, truncated, info = self.env.step(from_rows(actions.cpu(), self.num_agents))
+        obs, reward, terminated, truncated, info = self.env.step(from_rows(actions.cpu(), self.rows_per_env))
         self._obs = self._to_tensordict(obs)
         self.last_info = info
-        dones = env_flags_to_rows(terminated | truncated, self.num_agents).to(self.device)
-        extras = {"time_outs": env_flags_to_rows(truncated, self.num_agents).to(self.device), "log": info["log"]}
+        dones = env_flags_to_rows(terminated | truncated, self.rows_per_env).to(self.device)
+        extras = {"time_outs": env_flags_to_rows(truncated, self.rows_per_env).to(self.device), "log": info["log"]}
         return self._obs, to_rows(reward).to(self.device), dones, extras
