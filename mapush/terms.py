@@ -55,7 +55,23 @@ def bind_term(section: str, name: str, spec: dict) -> Term:
     required = {p for p in wanted if signature[p].default is inspect.Parameter.empty}
     if not required <= set(params) <= set(wanted):
         raise BadInput(f"{section}.{name} ({spec['func']}) takes params {wanted}, config gives {sorted(params)}")
+    for param, value in params.items():
+        _check_type(f"{section}.{name}.params.{param}", value, signature[param].annotation)
     return Term(name, func, params)
+
+
+PARAM_TYPES = {"float": (int, float), "int": (int,), "str": (str,), "bool": (bool,)}
+"""Annotations of term params that are checked, and the Python types a config value of each may have."""
+
+
+def _check_type(key: str, value, annotation) -> None:
+    """BadInput unless `value` fits a param annotated `float`, `int`, `str` or `bool` (others are not checked)."""
+    name = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", "")
+    types = PARAM_TYPES.get(name)
+    if types is None:
+        return
+    if not isinstance(value, types) or (name in ("float", "int") and isinstance(value, bool)):
+        raise BadInput(f"{key}={value!r} is not of type {name}; valid: a value of type {name}")
 
 
 def bind_terms(section: str, specs: dict) -> list[Term]:

@@ -110,3 +110,14 @@ def test_every_configured_mid_term_resolves(cfg_for):
         "object_moving",
         "ocb",
     }
+
+
+@pytest.mark.parametrize("value", ["fast", True, [200.0]])
+def test_a_param_of_the_wrong_type_raises_bad_input_naming_the_key_and_the_type(value):
+    with pytest.raises(BadInput, match=r"reward\.terms\.progress\.params\.alpha=.* is not of type float"):
+        RewardManager({"progress": {**PROGRESS, "params": {"alpha": value}}})
+
+
+def test_an_int_is_a_float_param():
+    manager = RewardManager({"progress": {**PROGRESS, "params": {"alpha": 200}}})
+    assert manager.terms["progress"][2] == {"alpha": 200}
