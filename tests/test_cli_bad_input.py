@@ -140,6 +140,7 @@ def test_physically_meaningless_number(train_bad, override, valid):
     assert_bad_input(train_bad(override), key, valid)
 
 
+@pytest.mark.slow
 def test_eval_parses_values_as_train_does(cli, run_copy, snapshot):
     """`5e-3` is a float to Hydra (train) and was a string to YAML 1.1 (eval's old parser): now both check it."""
     before = snapshot(run_copy)

@@ -15,6 +15,7 @@ from mapush.bench.throughput import iteration_breakdown
 from mapush.eval.curves import env_steps_at, first_reaching
 
 
+@pytest.mark.slow
 def test_bench_writes_its_figures_as_json_and_no_run_dir(cli, tmp_path):
     out = tmp_path / "bench.json"
     proc = cli("bench", "debug=smoke", "--json", out)

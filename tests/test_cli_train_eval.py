@@ -93,6 +93,7 @@ def test_eval_takes_episodes_seeds_and_a_name(cli, run_copy):
     assert result["checkpoint"].endswith("model_0.pt")
 
 
+@pytest.mark.slow
 def test_the_same_seed_gives_the_same_trained_weights(cli, tmp_path, smoke_run):
     """Two smoke trainings with seed 0 end with identical actor weights; seed 1 ends elsewhere."""
 

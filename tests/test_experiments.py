@@ -93,6 +93,7 @@ def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
     assert "Learning iteration 2/3" in (mid_run / "train.log").read_text()
 
 
+@pytest.mark.slow
 def test_a_failed_job_does_not_stop_the_others_and_is_listed(cli, tmp_path):
     # a value that composes and passes the checks but breaks PPO when training starts: both jobs fail
     proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", "method=ours,ours_no_ocb", "algo.algorithm.optimizer=nope")
@@ -119,6 +120,7 @@ def test_a_bad_sweep_fails_before_launching_anything(cli, tmp_path, args, named)
     assert not (tmp_path / "sweeps").exists()
 
 
+@pytest.mark.slow
 def test_scale_rejects_an_agent_count_the_task_cannot_hold(cli, tmp_path):
     proc = cli("scale", "--agents", "1,40", *SMOKE, f"sweep_root={tmp_path / 'sweeps'}")
     assert proc.returncode == 2
@@ -182,6 +184,7 @@ def fixture_tables(tmp_path):
     return runs
 
 
+@pytest.mark.slow
 def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(cli, tmp_path, fixture_tables):
     proc = cli("tables", "--runs", fixture_tables, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr

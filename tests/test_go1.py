@@ -122,6 +122,7 @@ def low_run(tmp_path_factory) -> Path:
     return Path(proc.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_run, tmp_path):
     run_dir = tmp_path / "run"
     shutil.copytree(low_run, run_dir)
@@ -134,6 +135,7 @@ def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_
     assert (run_dir / "episodes.mcap").stat().st_size > 0  # the Go1 walking, for Foxglove
 
 
+@pytest.mark.slow
 def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(cli, low_run, tmp_path):
     out = tmp_path / "go1"
     proc = cli("ship", low_run, out, "--episodes", "2", "--seeds", "0")
@@ -151,6 +153,7 @@ def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(cl
     assert torch.equal(shipped(obs), source(obs))  # the same actor as the run's own export
 
 
+@pytest.mark.slow
 def test_compare_evaluates_a_tracker_run_as_trained_and_on_go1s(cli, smoke_run, low_run, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(smoke_run, run)

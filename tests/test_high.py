@@ -134,6 +134,7 @@ def test_an_exception_named_terminal_ends_its_episode_and_only_its_own(high_cfg,
     assert end["exception"].tolist() == [True, False] and not end["success"].any()
 
 
+@pytest.mark.slow
 def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_path):
     proc = cli("train", "level=high", f"mid={smoke_run}", "debug=smoke", f"train.run_root={tmp_path}")
     assert proc.returncode == 0, proc.stderr
@@ -172,6 +173,7 @@ def test_a_missing_or_mismatched_mid_level_is_bad_input(cli, smoke_run, tmp_path
     assert not any(tmp_path.rglob("config.yaml"))  # nothing written
 
 
+@pytest.mark.slow
 def test_a_high_level_run_is_not_a_mid_level(cli, smoke_run, tmp_path):
     first = cli("train", "level=high", f"mid={smoke_run}", "debug=smoke", f"train.run_root={tmp_path}")
     high_run = first.stdout.strip().splitlines()[-1]

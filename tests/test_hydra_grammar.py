@@ -18,6 +18,7 @@ def test_cfg_job_prints_the_composed_config_and_trains_nothing(cli, tmp_path):
     assert "hydra" in both and both["task"]["name"] == "cuboid"
 
 
+@pytest.mark.slow
 def test_hydra_run_dir_decides_the_run_dir_which_carries_dot_hydra(cli, tmp_path):
     chosen = tmp_path / "my_run"
     proc = cli("train", "debug=smoke", f"hydra.run.dir={chosen}")
@@ -62,6 +63,7 @@ def test_a_glob_over_a_key_that_is_not_a_group_is_refused(cli):
     assert proc.returncode == 2 and "glob()" in proc.stderr and "valid:" in proc.stderr
 
 
+@pytest.mark.slow
 def test_the_dry_run_expands_hydra_sweep_functions(cli):
     proc = cli("scale", "--agents", "1", "task=glob(cyl*)", "seed=range(0,2)", "--dry-run")
     assert proc.returncode == 0, proc.stderr

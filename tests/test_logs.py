@@ -292,6 +292,7 @@ def test_no_episode_file_is_written_before_an_episode_ends(tmp_path, cfg_for):
     assert not (tmp_path / "e.mcap").exists()
 
 
+@pytest.mark.slow
 def test_training_records_episodes_at_the_interval(cli, tmp_path):
     # smoke: 1 s = 50-step episodes, 8 steps per iteration, interval 1; 16 iterations = 128 steps: env 0 ends its
     # first episode within 50 steps and its second within 100, so at least one whole episode is recorded
@@ -397,6 +398,7 @@ def _start_training(tmp_path: Path, iterations: int, checkpoints: int) -> tuple[
     return proc, run_dir
 
 
+@pytest.mark.slow
 def test_sigterm_leaves_complete_logs_and_the_run_resumes(cli, tmp_path):
     proc, run_dir = _start_training(tmp_path, iterations=5000, checkpoints=20)
     proc.send_signal(signal.SIGTERM)
@@ -503,6 +505,7 @@ def test_plot_of_a_dir_that_is_not_a_run_is_bad_input(cli, tmp_path):
 # live view
 
 
+@pytest.mark.slow
 def test_eval_live_serves_the_scene_over_a_foxglove_websocket(run_copy, tmp_path):
     import asyncio
     import socket

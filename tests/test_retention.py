@@ -81,6 +81,7 @@ def iterations_logged(path: Path) -> set[int]:
         return {json.loads(m.data)["iteration"] for _, _, m in make_reader(f).iter_messages()}
 
 
+@pytest.mark.slow
 def test_a_run_keeping_2_checkpoints_leaves_the_last_2_and_resumes_from_them(run_cli, tmp_path):
     # smoke episodes last 1 s, too short to push the object to its subgoal: every success rate is 0 (or not yet
     # defined), so the best is the newest and exactly the last 2 of 4 checkpoints (save_interval 1) stay

@@ -23,6 +23,7 @@ def high_run(smoke_run, tmp_path_factory) -> Path:
     return Path(proc.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_a_high_level_ships_with_its_mid_level_and_evaluates_from_anywhere(cli, high_run, smoke_run, tmp_path):
     out = tmp_path / "package" / "cuboid"
     proc = cli("ship", high_run, out, "--episodes", "2", "--seeds", "0")

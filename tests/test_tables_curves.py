@@ -80,6 +80,7 @@ def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_
     assert (tmp_path / "out" / "ocb_ablation_quick_curves.png").stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_tables_can_write_one_table_and_refuse_an_unknown_one(cli, tmp_path, curve_runs):
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out", "--table", "ocb_ablation")
     assert proc.returncode == 0, proc.stderr
