@@ -1,9 +1,11 @@
 """Throughput of any level: env, raw physics and training env-steps/s, where a PPO iteration's time goes, memory.
 
 One env-step is one 50 Hz control step of one env with all its robots (architecture section 7); a high-level
-decision holds `level.decision_steps` of them. The raw figure steps the same `mujoco.batch` with random controls
-and no env logic: the physical limit on this machine. Env and raw are timed alternately, best round of each, so
-that drift on a shared machine hits both alike.
+decision holds `level.decision_steps` of them. The raw figure steps the same `mujoco.batch` under the controls the
+env's own timed run applied, replayed without the env: the same physics work (robots walking, pushing, touching)
+with nothing around it, the limit on this machine. (Random controls would be cheaper physics than the env's: robots
+that touch nothing.) Env and raw are timed alternately, best round of each, so drift on a shared machine hits both
+alike.
 """
 
 from __future__ import annotations
@@ -29,23 +31,38 @@ from mapush.train import attach_episode_recorder
 ROUNDS = 3
 
 
-def _time_env(env, steps: int, gen: torch.Generator) -> float:
+def _time_env(env, steps: int, gen: torch.Generator) -> tuple[float, list[np.ndarray]]:
+    """Env-steps/s of `steps` env steps with seeded random actions, and the controls its physics ran with (one
+    array per physics call, copied as `BatchSim.advance` is called)."""
     shape = (steps, env.num_envs, env.policy_agents, env.num_actions)
     actions = torch.rand(*shape, generator=gen) * 2 - 1
-    start = time.perf_counter()
-    for k in range(steps):
-        env.step(actions[k])
-    return env.num_envs * steps * _control_steps(env) / (time.perf_counter() - start)
+    sim, controls = env.sim, []
+    advance = sim.advance
+
+    def recorded() -> np.ndarray:
+        controls.append(sim.ctrl.copy())
+        return advance()
+
+    sim.advance = recorded
+    try:
+        start = time.perf_counter()
+        for k in range(steps):
+            env.step(actions[k])
+        elapsed = time.perf_counter() - start
+    finally:
+        del sim.advance  # the class's method again
+    return env.num_envs * steps * _control_steps(env) / elapsed, controls
 
 
-def _time_raw(env, steps: int, rng: np.random.Generator) -> float:
+def _time_raw(env, controls: list[np.ndarray]) -> float:
+    """Env-steps/s of raw `mujoco.batch` stepping of the env's batch under the controls the env ran with: the same
+    physics work (robots walking and pushing) without the env's logic, policies or resets."""
     sim = env.sim  # every level's `BatchSim`
-    controls = rng.uniform(-0.5, 0.5, (steps, *sim.ctrl.shape))
     start = time.perf_counter()
-    for k in range(steps):
-        sim.ctrl[:] = controls[k]
+    for ctrl in controls:
+        sim.ctrl[:] = ctrl
         sim.batch.step(nstep=sim.decimation)
-    return env.num_envs * steps / (time.perf_counter() - start)
+    return env.num_envs * len(controls) / (time.perf_counter() - start)
 
 
 def _control_steps(env) -> int:
@@ -167,12 +184,13 @@ def run_bench(cfg: DictConfig) -> dict:
     plain["num_envs"] = int(cfg.bench.num_envs)
     steps = int(cfg.bench.steps)
     env = make_env(plain)
-    gen, rng = torch.Generator().manual_seed(0), np.random.default_rng(0)
+    gen = torch.Generator().manual_seed(0)
     _time_env(env, 2, gen)
     env_rates, raw_rates = [], []
     for _ in range(ROUNDS):
-        raw_rates.append(_time_raw(env, steps * _control_steps(env), rng))
-        env_rates.append(_time_env(env, steps, gen))
+        rate, controls = _time_env(env, steps, gen)
+        env_rates.append(rate)
+        raw_rates.append(_time_raw(env, controls))
     control_steps = _control_steps(env)
     del env
     training = _time_training(plain, int(cfg.bench.train_iterations), control_steps)
