@@ -32,3 +32,26 @@ def test_a_level_resets_and_steps_with_finite_tensors_of_its_shapes(level, smoke
         assert "episode_end" in info
     vec = AgentRowsVecEnv(env)  # what rsl-rl sees: one row per env and policy agent
     assert vec.get_observations()["policy"].shape[0] == E * rows == vec.num_envs
+
+
+def test_a_level_s_exceptions_are_its_config_terms():
+    # every object tilts more than -1 rad, so object_tilt (third in conf/level/mid.yaml) fires at the first step
+    cfg = composed("debug=smoke", "level.exceptions.object_tilt.params.max_rad=-1.0")
+    cfg["num_envs"] = E
+    env = make_env(cfg)
+    assert env.exception_names == ("diverged", "robot_collision", "object_tilt", "robot_tilt")
+    _, _, terminated, _, info = env.step(torch.zeros(E, env.num_agents, 3))
+    assert terminated.all()
+    assert info["episode_end"]["exception_kind"].tolist() == [2] * E
+
+
+def test_a_level_s_observations_are_its_config_terms(smoke_run):
+    # the H+L policy's view without its one-hot id: A = 2 numbers narrower, the critic's unchanged
+    full = composed("debug=smoke", "level=high_nav")
+    lean = composed("debug=smoke", "level=high_nav", "~level.observations.policy.one_hot")
+    widths = []
+    for cfg in (full, lean):
+        cfg["num_envs"] = E
+        obs = make_env(cfg).observations()
+        widths.append((obs["policy"].shape[-1], obs["critic"].shape[-1]))
+    assert widths[1] == (widths[0][0] - 2, widths[0][1])
