@@ -58,9 +58,10 @@ def test_an_unknown_shipped_name_lists_the_shipped_ones(cli):
 @pytest.mark.parametrize("name", shipped_names())
 def test_every_shipped_policy_loads_and_runs_one_episode_without_writing_into_the_package(cli, name, tmp_path):
     before = {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")}
-    proc = cli("eval", f"shipped:{name}", "--episodes", "1", "--seeds", "0")
+    # one whole episode, cut to 20 s (a high level's 160 s would take 10-15 s of CPU); its eval file is named so
+    proc = cli("eval", f"shipped:{name}", "--episodes", "1", "--seeds", "0", "level.episode_length_s=20")
     assert proc.returncode == 0, proc.stderr
-    out = tmp_path / "runs" / "shipped" / shipped_run(name).relative_to(PACKAGE) / "eval.json"
+    out = tmp_path / "runs" / "shipped" / shipped_run(name).relative_to(PACKAGE) / "eval_level.episode-length-s-20.json"
     assert json.loads(out.read_text())["episodes"] == 1
     assert {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")} == before
 
