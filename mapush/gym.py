@@ -19,7 +19,6 @@ import torch
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from mapush.envs.low import LocomotionEnv
 from mapush.errors import BadInput
 
 FINAL_INFO_KEYS = ("success", "exception", "exception_kind", "time_s")
@@ -29,12 +28,6 @@ FINAL_INFO_KEYS = ("success", "exception", "exception_kind", "time_s")
 def _numpy(tensor: torch.Tensor) -> np.ndarray:
     """A fresh numpy copy: the env may write its tensors in place later, and gymnasium wants new data per call."""
     return tensor.detach().cpu().numpy().copy()
-
-
-def action_limit(env) -> float:
-    """|action| the env acts on: the push levels clip actions to [-1, 1], the locomotion level to
-    +-`lowlevel.action_clip`; beyond it an action changes nothing."""
-    return float(env.robot["action_clip"]) if isinstance(env, LocomotionEnv) else 1.0
 
 
 class VectorEnv(gymnasium.vector.VectorEnv):
@@ -68,7 +61,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
         self._final_obs: np.ndarray | None = None
         obs = env.observations()["policy"]
         self._action_shape = (env.num_envs, env.policy_agents, env.num_actions)
-        limit = action_limit(env)
+        limit = env.action_limit
         self.single_observation_space = gymnasium.spaces.Box(-np.inf, np.inf, tuple(obs.shape[1:]), np.float32)
         self.single_action_space = gymnasium.spaces.Box(-limit, limit, self._action_shape[1:], np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -95,9 +88,7 @@ class VectorEnv(gymnasium.vector.VectorEnv):
             raise BadInput(f"seed {seed!r}: one generator draws every env's layout; valid: an int or None")
         super().reset(seed=seed)
         if seed is not None:
-            self.env.generator.manual_seed(int(seed))
-            if isinstance(self.env, LocomotionEnv):
-                self.env.rng = np.random.default_rng(int(seed))
+            self.env.seed(int(seed))
         mask = (options or {}).get("reset_mask")
         ids = np.arange(self.num_envs) if mask is None else np.flatnonzero(np.asarray(mask, dtype=bool))
         self._env_reset(ids)

@@ -33,6 +33,8 @@ def exception_names(cfg: dict) -> tuple[str, ...]:
 class EnvCore:
     """E envs with `rows` policy rows each (agents, or one per team), stepped as one batch.
 
+    `action_limit`: |action| the env acts on; a step clips actions to it, so beyond it an action changes nothing.
+
     Attributes every level has (E = `num_envs`):
         episode_step (E,) policy steps this episode; success, exception (E,) this step's flags;
         exception_kind (E,) index into `exception_names`, -1 for none; episode_sums {reward term: (E, rows)};
@@ -46,6 +48,8 @@ class EnvCore:
         rows: policy rows per env (rsl-rl sees E x rows rows).
         dt: seconds per policy step.
     """
+
+    action_limit = 1.0
 
     def __init__(self, cfg: dict, sim, num_envs: int, num_agents: int, rows: int, dt: float):
         self.cfg = cfg
@@ -77,6 +81,10 @@ class EnvCore:
         RewardManager(cfg["reward"]["terms"])
         observation_terms(cfg)
         bind_terms("level.exceptions", cfg["level"]["exceptions"])
+
+    def seed(self, seed: int) -> None:
+        """Reseed what draws the episodes' starts (the next resets draw from it)."""
+        self.generator.manual_seed(int(seed))
 
     # ----------------------------------------------------------------------------------------------------------
     def reset(self, ids: np.ndarray) -> None:

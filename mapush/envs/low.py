@@ -71,6 +71,7 @@ class LocomotionEnv(EnvCore):
         self.push_velocity = level["eval_push_velocity"] if evaluation else level["randomize"]["push_velocity"]
         self.num_actions = 12
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
+        self.action_limit = float(self.robot["action_clip"])
         b = sim.batch
         self.geom_xpos, self.actuator_force = b.bind("geom_xpos"), b.bind("actuator_force")
         self.body_xquat = b.bind("xquat")
@@ -89,6 +90,11 @@ class LocomotionEnv(EnvCore):
         self.state = None  # read at the first reset; the foot speeds need the previous foot positions
         self.drawn_geoms = np.array(drawn_geom_ids(self.model))
         self.reset(np.arange(E))
+
+    def seed(self, seed: int) -> None:
+        """Reseed the start draws: commands (torch) and poses, headings and pushes (numpy)."""
+        super().seed(seed)
+        self.rng = np.random.default_rng(int(seed))
 
     def _randomize_once(self) -> None:
         """Per-env ground and foot friction and added trunk mass (drawn once, as the original drew friction)."""
@@ -159,8 +165,7 @@ class LocomotionEnv(EnvCore):
     def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
         """One 20 ms policy step. actions: (E, 1, 12). Returns obs, rewards (E, 1), terminated, truncated, info."""
         self.last_actions = self.actions
-        clip = self.robot["action_clip"]
-        self.actions = actions.reshape(self.num_envs, 12).clamp(-clip, clip)
+        self.actions = actions.reshape(self.num_envs, 12).clamp(-self.action_limit, self.action_limit)
         self.sim.ctrl[:] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
         failed = self.sim.advance()
         self.episode_step += 1
