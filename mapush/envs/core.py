@@ -72,6 +72,8 @@ class EnvCore:
         self.exception_kind = torch.full((E,), -1)
         self.diverged = torch.zeros(E, dtype=torch.bool)  # the simulation failed or left the finite numbers
         self.episode_sums = {name: torch.zeros(E, rows) for name in self.rewards.terms}
+        self.last_reward = torch.zeros(E, rows)  # the latest step's reward and its weighted terms
+        self.last_parts = {name: torch.zeros(E, rows) for name in self.rewards.terms}
         self.outcomes = EpisodeOutcomes()
         self.recorders = []
 
@@ -155,6 +157,7 @@ class EnvCore:
         reward = torch.nan_to_num(reward, 0.0, 0.0, 0.0)
         for name, value in parts.items():
             self.episode_sums[name] += torch.nan_to_num(value, 0.0, 0.0, 0.0)
+        self.last_reward, self.last_parts = reward, parts
         done = terminated | truncated
         if commands is not None:
             for recorder in self.recorders:

@@ -50,7 +50,7 @@ class HighPushEnv(PushEnv):
         self.num_actions = 2  # per policy row: the subgoal's turn and distance, each in [-1, 1]
         self.object_radius = object_radius(cfg["task"]["object"])
         self.robot_size = tuple(cfg["lowlevel"]["size"][:2])
-        E, rows = self.num_envs, self.policy_agents
+        E = self.num_envs
         self.inner_step = torch.zeros(E, dtype=torch.long)  # mid-level steps; `episode_step` counts decisions
         self.target_xy = torch.zeros(E, 2)
         self.path = torch.zeros(E, level["path"]["points"], 2)
@@ -61,8 +61,6 @@ class HighPushEnv(PushEnv):
         self.failed = torch.zeros(E, dtype=torch.bool)
         self.exception_decisions = torch.zeros(E)  # decisions with an exception, this episode
         self.terminal = torch.tensor([k in level["terminal_exceptions"] for k in self.exception_names])
-        self.last_reward = torch.zeros(E, rows)
-        self.last_parts = {name: torch.zeros(E, rows) for name in self.rewards.terms}
         self.reset(np.arange(E))
 
     @staticmethod
@@ -223,7 +221,6 @@ class HighPushEnv(PushEnv):
         if level["hold_at_target"]:
             extra = self._hold_factor(self.success).unsqueeze(-1) - 1.0
             reward = reward + extra * sum(parts[name] for name in level["hold_at_target"])
-        self.last_reward, self.last_parts = torch.nan_to_num(reward, 0.0, 0.0, 0.0), parts
         return self._finish_step(reward, parts, terminated, truncated, None)
 
     def _apply_action(self, actions: torch.Tensor) -> None:

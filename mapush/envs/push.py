@@ -31,10 +31,11 @@ class PushEnv(EnvCore):
         self.validate(cfg)
         task = cfg["task"]
         E = num_envs or cfg["num_envs"]
-        obstacles = cfg["level"].get("obstacles") or {"count": 0, "size": (1.0, 1.0, 1.0)}
-        self.num_obstacles = obstacles["count"]
+        obstacles = cfg["level"].get("obstacles")  # the long-horizon map's blocks; none at the mid level
+        blocks = {"obstacles": obstacles["count"], "obstacle_size": obstacles["size"]} if obstacles else {}
+        self.num_obstacles = blocks.get("obstacles", 0)
         self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
-        sim = PushSim(cfg["sim"], task, self.lowlevel, E, obstacles["count"], obstacles["size"])
+        sim = PushSim(cfg["sim"], task, self.lowlevel, E, **blocks)
         super().__init__(cfg, sim, E, task["num_agents"], rows, sim.dt * decision_steps)
         self.sim_dt = sim.dt
         self.hull = torch.tensor(object_hull(task["object"]), dtype=torch.float32)
