@@ -103,3 +103,23 @@ def test_a_run_config_takes_current_defaults_for_nested_level_settings_it_lacks(
     cfg = load_run_config(tmp_path)
     assert cfg.level.path.plan_in_training is False and cfg.level.obstacles.train_clear_path is True  # today's
     assert cfg.level.planner.margin_m == 0.1 and cfg.level.path.points == 32  # as the run saved them
+
+
+def _mid_weights(*overrides: str) -> dict[str, float]:
+    terms = to_plain(compose_config(list(overrides)))["reward"]["terms"]
+    return {name: terms[name]["weight"] for name in ("subgoal_progress", "agent_proximity", "ocb")}
+
+
+def test_the_cylinder_weighs_its_mid_reward_as_the_original_checkpoints_did():
+    # paper-and-original.md 2.7: the stored cylinder checkpoints' target 50, collision -30, OCB 120, over 20000
+    assert _mid_weights("task=cylinder") == pytest.approx(
+        {"subgoal_progress": 50 / 20000, "agent_proximity": -30 / 20000, "ocb": 120 / 20000}
+    )
+    # the cuboid's are the paper's (App. B): 3.25e-3, -2.5e-3, 4e-3
+    expected = {"subgoal_progress": 3.25e-3, "agent_proximity": -2.5e-3, "ocb": 4e-3}
+    assert _mid_weights("task=cuboid") == pytest.approx(expected)
+    assert _mid_weights("task=tblock") == pytest.approx(expected)
+
+
+def test_a_command_line_weight_overrides_the_tasks_own():
+    assert _mid_weights("task=cylinder", "reward.terms.ocb.weight=0.01")["ocb"] == pytest.approx(0.01)

@@ -1,0 +1,101 @@
+"""Carry a sweep's finished stages over to a newer commit whose configs name them differently but behave alike.
+
+A stage's identity hashes its composed config, so a commit that only reorganises the config (the same numbers
+under new keys, as f56d309 did when observations and exceptions became config terms) gives every stage a new
+identity, and a sweep at that commit would train them all again. This script, run from the newer checkout:
+
+1. fingerprints every level at the old checkout and here (`tools/fingerprint.py`) and stops unless every hash
+   agrees, that is unless both commits compute bitwise-equal observations, rewards and episode ends;
+2. plans the sweep at both commits (`dry_run`) and pairs their stages by job and stage name;
+3. for each finished old stage whose new identity has no run yet, makes `stages/<new>/`: a `stage.yaml` with the
+   new identity, the config this commit composes and `adopted_from` (old identity, commit, fingerprints), and the
+   old run dir with its files hard-linked (no copy; `find_runs` does not follow symbolic links). The old stage
+   stays as it was; unfinished old stages are left to train again.
+
+Run it before a change that alters behaviour: the pairing trusts that only the config's form changed.
+
+    python tools/rekey_stages.py OLD_CHECKOUT MID_RUN experiment=main [more sweep overrides]
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from omegaconf import OmegaConf
+
+from mapush.config import compose_config
+from mapush.experiments import stages
+from mapush.experiments.pipeline import planned_stages
+from mapush.experiments.sweep import dry_run, job_combos, sweep_overrides
+from mapush.rundir import find_runs
+
+TOOLS = Path(__file__).resolve().parent
+PLAN = (
+    "import json, sys; from mapush.experiments.sweep import dry_run; print('ROWS', json.dumps(dry_run(sys.argv[1:])))"
+)
+
+
+def at_checkout(checkout: Path, args: list[str]) -> str:
+    """Run python with `args` on the mapush of `checkout`; its stdout."""
+    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    done = subprocess.run([sys.executable, *args], cwd=checkout, env=env, capture_output=True, text=True)
+    if done.returncode:
+        sys.exit(f"{checkout}: {' '.join(args)} failed:\n{done.stderr[-2000:]}")
+    return done.stdout
+
+
+def commit_of(checkout: Path) -> str:
+    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=checkout, capture_output=True, text=True,
+                          check=True).stdout.strip()  # fmt: skip
+
+
+def main(old: Path, mid_run: str, overrides: list[str]) -> int:
+    here = TOOLS.parent
+    prints = {name: json.loads(at_checkout(path, [str(TOOLS / "fingerprint.py"), mid_run]).splitlines()[-1])
+              for name, path in (("old", old), ("new", here))}  # fmt: skip
+    if prints["old"] != prints["new"]:
+        print(f"fingerprints differ, nothing adopted:\n  old {prints['old']}\n  new {prints['new']}")
+        return 1
+    old_rows = json.loads(at_checkout(old, ["-c", PLAN, *overrides]).split("ROWS ", 1)[1])
+    old_ids = {(r["job"], r["stage"]): r["identity"] for r in old_rows}
+    new_rows = dry_run(overrides)
+    full = sweep_overrides(overrides)
+    planned = {}
+    for combo in job_combos(full):
+        cfg = compose_config(combo, config_name="sweep")
+        for stage in planned_stages(cfg):
+            planned[stage.identity] = (stage, Path(cfg.sweep_root))
+    adopted = 0
+    for row in new_rows:
+        key = (row["job"], row["stage"])
+        if key not in old_ids or row["action"] != "train":
+            continue
+        stage, root = planned[row["identity"]]
+        source = stages.stage_dir(root, old_ids[key])
+        if stages.status(source, stage.iterations) != "finished":
+            continue
+        target = stages.stage_dir(root, row["identity"])
+        for run_dir in find_runs(source):
+            shutil.copytree(run_dir, target / run_dir.relative_to(source), copy_function=os.link)
+        cfg = stages.compose_stage(stage.overrides, lambda c, n=stage.iterations: n)
+        record = {
+            "identity": row["identity"],
+            "config": cfg,
+            "adopted_from": {"identity": old_ids[key], "commit": commit_of(old), "fingerprints": prints["new"]},
+        }
+        OmegaConf.save(OmegaConf.create(record), target / stages.IDENTITY_FILE)
+        print(f"adopted {row['job']} {row['stage']}: {old_ids[key]} -> {row['identity']}")
+        adopted += 1
+    print(f"{adopted} stages adopted from {commit_of(old)} (fingerprints equal: {prints['new']})")
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 4:
+        sys.exit(__doc__.rsplit("\n\n", 1)[1])
+    sys.exit(main(Path(sys.argv[1]).resolve(), str(Path(sys.argv[2]).resolve()), sys.argv[3:]))
