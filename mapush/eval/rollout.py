@@ -49,6 +49,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     success = torch.zeros(episodes, dtype=torch.bool)
     exception = torch.zeros(episodes, dtype=torch.bool)
     planner_failure = torch.zeros(episodes, dtype=torch.bool)
+    kind = torch.full((episodes,), -1)  # the exception that ended each failed episode (`env.exception_names`)
     time_s = torch.zeros(episodes)
     velocity_error = torch.zeros(episodes)  # the low level: mean |commanded - actual| velocity of each episode
     obs = vec.get_observations()
@@ -62,6 +63,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
             if "planner_failure" in end:
                 planner_failure |= end["planner_failure"] & first
             time_s[first] = end["time_s"][first]
+            kind[first] = end["exception_kind"][first].long()
             if "velocity_error" in end:
                 velocity_error[first] = end["velocity_error"][first]
             finished |= end["done"]
@@ -76,6 +78,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
         "episodes": episodes,
         "success_rate": success.float().mean().item(),
         "exception_rate": exception.float().mean().item(),
+        "exceptions": {name: (kind == i).float().mean().item() for i, name in enumerate(env.exception_names)},
         "planner_failure_rate": planner_failure.float().mean().item(),
         "completion_time_s": completion_s.mean().item(),
         "completion_time": (completion_s / timeout_s).mean().item(),
@@ -172,6 +175,7 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
         "completion_time": float(np.mean([r["completion_time"] for r in per_seed])),
         "completion_time_std": float(np.std([r["completion_time"] for r in per_seed])),
         "completion_time_s": float(np.mean([r["completion_time_s"] for r in per_seed])),
+        "exceptions": {k: float(np.mean([r["exceptions"][k] for r in per_seed])) for k in per_seed[0]["exceptions"]},
         "timeout_s": per_seed[0]["timeout_s"],
         "episodes": episodes,
         "seeds": seeds,
