@@ -39,12 +39,14 @@ def ablate(
 @app.command(context_settings=PASS_THROUGH)
 def scale(
     ctx: typer.Context,
-    agents: str = typer.Option("1,2,3,4", "--agents", help="Comma-separated robot counts."),
+    agents: str | None = typer.Option(
+        None, "--agents", help="Comma-separated robot counts (default: sweep.agents of conf/experiment/scale.yaml)."
+    ),
     dry_run: bool = DRY_RUN,
 ) -> None:
     """The cylinder scalability study: the whole hierarchy with each robot count, several seeds (a sweep)."""
-    counts = number_list(agents, "--agents", minimum=1)
-    _sweep(["experiment=scale", f"agents={','.join(map(str, counts))}", *ctx.args], dry_run)
+    counts = [] if agents is None else [f"agents={','.join(map(str, number_list(agents, '--agents', minimum=1)))}"]
+    _sweep(["experiment=scale", *counts, *ctx.args], dry_run)
 
 
 def _sweep(overrides: list[str], dry_run: bool = False) -> None:
