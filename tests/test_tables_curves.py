@@ -114,3 +114,24 @@ def test_the_main_tables_findings_from_hand_made_results():
     assert lines[2] == "Cuboid: the learned high level does not beat path following (-5.0 points of S.R.)"  # 75 - 80
     assert lines[3] == "Cuboid: on legged Go1s Ours loses 10.0 points of S.R., within 10 points"  # 75 - 65
     assert _main_findings(results, PAPER["main"], "tblock") == []
+
+
+def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
+    from mapush.report.tables import PAPER, _main_findings
+
+    def job(seed, go1_sr, robot_tilt, collision):
+        go1 = {
+            "success_rate": go1_sr,
+            "completion_time": 0.7,
+            "exceptions": {"robot_collision": collision, "robot_tilt": robot_tilt, "diverged": 0.0},
+        }
+        main = {"success_rate": 0.8, "completion_time": 0.5}
+        return {"method": "ours", "task": "cuboid", "seed": seed, "evals": {"main": main, "go1": go1},
+                "job_dir": f"ours{seed}"}  # fmt: skip
+
+    lines = _main_findings([job(0, 0.5, 0.40, 0.02), job(1, 0.4, 0.30, 0.0)], PAPER["main"], "cuboid")
+    # 80 - 45 = 35 points; robot_tilt (40 + 30) / 2 = 35 %, robot_collision (2 + 0) / 2 = 1 %, diverged left out
+    assert lines[-1] == (
+        "Cuboid: on legged Go1s Ours loses 35.0 points of S.R., not within 10 points; "
+        "episodes ended by robot_tilt 35 %, robot_collision 1 % (mean over 2 seeds)"
+    )

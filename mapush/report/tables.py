@@ -140,8 +140,20 @@ def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
             lines.append(f"{label}: the learned high level {verdict} path following ({gap:+.1f} points of S.R.)")
         else:
             verdict = "within" if gap <= LEGGED_GAP else "not within"
-            lines.append(f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points")
+            line = f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points"
+            lines.append(line + _ended_by(mine, task, eval_name))
     return lines
+
+
+def _ended_by(results: list[dict], task: str, eval_name: str) -> str:
+    """The end of a finding line: which exceptions ended the evaluation's episodes, where its records name them."""
+    shares = [r["evals"][eval_name]["exceptions"] for r in _matching(results, method="ours", task=task)
+              if "exceptions" in r["evals"].get(eval_name, {})]  # fmt: skip
+    if not shares:
+        return ""
+    mean = {kind: 100.0 * float(np.mean([s[kind] for s in shares])) for kind in shares[0]}
+    named = [f"{kind} {share:.0f} %" for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0]
+    return f"; episodes ended by {', '.join(named)} (mean over {len(shares)} seeds)" if named else ""
 
 
 def ocb_table(results: list[dict], variant: str) -> Table:
