@@ -77,20 +77,20 @@ def hull_inward_normal(
         Shape: (E, A, 2).
     """
     q = rotate(points - object_xy.unsqueeze(1), object_yaw, inverse=True)  # R(-yaw) (p - b): in the object frame
-    start, edge = hull, torch.roll(hull, -1, 0) - hull  # (V, 2)
-    t = (((q.unsqueeze(2) - start) * edge).sum(-1) / (edge * edge).sum(-1)).clamp(0.0, 1.0)  # (E, A, V)
-    closest = start + t.unsqueeze(-1) * edge  # (E, A, V, 2)
-    gap = closest - q.unsqueeze(2)
-    dist = torch.linalg.vector_norm(gap, dim=-1)
-    k = dist.argmin(-1, keepdim=True)  # nearest edge
-    gap_k = torch.gather(gap, 2, k.unsqueeze(-1).expand(*k.shape, 2)).squeeze(2)
-    dist_k = torch.gather(dist, 2, k).squeeze(2)
+    edge = torch.roll(hull, -1, 0) - hull  # (V, 2), edge k from vertex k to k + 1
+    (sx, sy), (ex, ey) = hull.unbind(-1), edge.unbind(-1)
+    # per-component (E, A, V) tensors: the cylinder's 64-gon makes this the costliest reward term
+    dx, dy = q[..., 0:1] - sx, q[..., 1:2] - sy  # from each edge's start to the point
+    t = ((dx * ex + dy * ey) / (ex * ex + ey * ey)).clamp(0.0, 1.0)  # the closest point's place along the edge
+    gx, gy = (sx + t * ex) - q[..., 0:1], (sy + t * ey) - q[..., 1:2]  # from the point to it
+    # nearest edge; vector_norm rounds as the earlier code did, so near-ties (a shared vertex) pick the same edge
+    k = torch.linalg.vector_norm(torch.stack([gx, gy], -1), dim=-1).argmin(-1, keepdim=True)
+    gap_k = torch.stack([gx.gather(2, k), gy.gather(2, k)], -1).squeeze(2)  # (E, A, 2)
+    dist_k = torch.linalg.vector_norm(gap_k, dim=-1)
     edge_k = edge[k.squeeze(-1)]
     edge_normal = torch.stack([-edge_k[..., 1], edge_k[..., 0]], -1)  # left normal: inward for CCW
     edge_normal = edge_normal / torch.linalg.vector_norm(edge_normal, dim=-1, keepdim=True)
-    inside = ((q.unsqueeze(2) - start)[..., 0] * edge[:, 1] - (q.unsqueeze(2) - start)[..., 1] * edge[:, 0] <= 0).all(
-        -1
-    )  # left of (or on) every edge
+    inside = (dx * ey - dy * ex <= 0).all(-1)  # left of (or on) every edge
     use_gap = (~inside) & (dist_k > 1e-6)
     n = torch.where(use_gap.unsqueeze(-1), gap_k / dist_k.clamp_min(1e-6).unsqueeze(-1), edge_normal)
     # back to the world frame: R(yaw) n
