@@ -27,7 +27,8 @@ def test_equal_stage_configs_have_one_identity_whatever_the_job_that_composes_th
     # where a stage is written, with how many threads, how it is logged and how many checkpoints it keeps do not
     # make another stage
     assert _identities() == _identities(
-        "overrides=['sim.nthread=1','log.episode_interval=0','train.progress=false','algo.keep_checkpoints=0']"
+        "overrides=['sim.nthread=1','log.episode_interval=0','train.progress=false','algo.keep_checkpoints=0',"
+        "'algo.save_interval=7']"
     )
 
 
@@ -45,6 +46,15 @@ def test_a_changed_reward_weight_tracker_value_or_budget_is_another_stage():
     # a high-level change leaves the mid level shared
     high_only = _identities("experiment.budgets.quick.stages.high.env_steps=3.0e6")
     assert high_only["mid"] == base["mid"] and high_only["high"] != base["high"]
+
+
+def test_a_sweep_stage_writes_a_checkpoint_by_every_mark_of_its_learning_curve():
+    cfg = compose_config(["experiment=main", "method=ours", "task=cuboid"], config_name="sweep")
+    mid, high = planned_stages(cfg)
+    # quick budget, curve marks every 2.5M env-steps. mid: 500 envs x 24 steps = 12,000 env-steps per iteration,
+    # a mark every 208 iterations, so algo/mappo.yaml's 50 stands. high: 128 envs x 32 decisions x 25 control
+    # steps = 102,400 env-steps per iteration, so every 24 iterations instead of ppo_high.yaml's 50
+    assert (mid.save_interval, high.save_interval) == (50, 24)
 
 
 def _sweep(cli, root, *args):

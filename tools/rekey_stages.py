@@ -7,10 +7,11 @@ identity, and a sweep at that commit would train them all again. This script, ru
 1. fingerprints every level at the old checkout and here (`tools/fingerprint.py`) and stops unless every hash
    agrees, that is unless both commits compute bitwise-equal observations, rewards and episode ends;
 2. plans the sweep at both commits (`dry_run`) and pairs their stages by job and stage name;
-3. for each finished old stage whose new identity has no run yet, makes `stages/<new>/`: a `stage.yaml` with the
-   new identity, the config this commit composes and `adopted_from` (old identity, commit, fingerprints), and the
-   old run dir with its files hard-linked (no copy; `find_runs` does not follow symbolic links). The old stage
-   stays as it was; unfinished old stages are left to train again.
+3. for each old stage with a run (finished, or cut after a checkpoint) whose new identity has none yet, makes
+   `stages/<new>/`: a `stage.yaml` with the new identity, the config this commit composes and `adopted_from`
+   (old identity, commit, fingerprints), and a copy of the old run dir whose weights are hard links (`find_runs`
+   does not follow symbolic links, and a resumed run appends to its logs, so those are copied). The old stage
+   stays as it was; a sweep at this commit reuses the finished ones and resumes the cut ones.
 
 Run it before a change that alters behaviour: the pairing trusts that only the config's form changed.
 
@@ -49,6 +50,11 @@ def at_checkout(checkout: Path, args: list[str]) -> str:
     return done.stdout
 
 
+def _link_weights(source: str, target: str) -> None:
+    """Hard-link weights (written once), copy everything else (logs grow when a run resumes)."""
+    (os.link if source.endswith((".pt", ".onnx")) else shutil.copy2)(source, target)
+
+
 def commit_of(checkout: Path) -> str:
     return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=checkout, capture_output=True, text=True,
                           check=True).stdout.strip()  # fmt: skip
@@ -77,11 +83,11 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
             continue
         stage, root = planned[row["identity"]]
         source = stages.stage_dir(root, old_ids[key])
-        if stages.status(source, stage.iterations) != "finished":
+        if stages.status(source, stage.iterations) == "new":
             continue
         target = stages.stage_dir(root, row["identity"])
         for run_dir in find_runs(source):
-            shutil.copytree(run_dir, target / run_dir.relative_to(source), copy_function=os.link)
+            shutil.copytree(run_dir, target / run_dir.relative_to(source), copy_function=_link_weights)
         cfg = stages.compose_stage(stage.overrides, lambda c, n=stage.iterations: n)
         record = {
             "identity": row["identity"],
@@ -89,7 +95,8 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
             "adopted_from": {"identity": old_ids[key], "commit": commit_of(old), "fingerprints": prints["new"]},
         }
         OmegaConf.save(OmegaConf.create(record), target / stages.IDENTITY_FILE)
-        print(f"adopted {row['job']} {row['stage']}: {old_ids[key]} -> {row['identity']}")
+        print(f"adopted {row['job']} {row['stage']} ({stages.status(source, stage.iterations)}): "
+              f"{old_ids[key]} -> {row['identity']}")  # fmt: skip
         adopted += 1
     print(f"{adopted} stages adopted from {commit_of(old)} (fingerprints equal: {prints['new']})")
     return 0

@@ -80,13 +80,15 @@ def variant(cfg: DictConfig) -> str:
 
 
 class PlannedStage(NamedTuple):
-    """A stage of a job as it will be trained: its overrides, budget in iterations and env-steps, identity."""
+    """A stage of a job as it will be trained: its overrides, budget in iterations and env-steps, identity, and
+    the iterations between its checkpoints."""
 
     name: str
     overrides: list[str]
     iterations: int
     env_steps: int
     identity: str
+    save_interval: int
 
 
 def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
@@ -99,8 +101,13 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
         stage_cfg = stages.compose_stage(overrides, lambda c, s=env_steps: iterations_for(c, s))
         identities[name] = stages.identity(stage_cfg, overrides, identities)
         iterations = int(stage_cfg["train"]["iterations"])
-        steps = iterations * env_steps_per_iteration(stage_cfg)
-        planned.append(PlannedStage(name, overrides, iterations, steps, identities[name]))
+        per_iteration = env_steps_per_iteration(stage_cfg)
+        save_interval = int(stage_cfg["algo"]["save_interval"])
+        if budget.get("curve"):  # a checkpoint by every mark of the learning curve, which evaluates the last before it
+            save_interval = min(save_interval, max(1, int(float(budget.curve.every_env_steps) // per_iteration)))
+        planned.append(
+            PlannedStage(name, overrides, iterations, iterations * per_iteration, identities[name], save_interval)
+        )
     return planned
 
 
@@ -122,7 +129,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         overrides = [_resolve_stage_refs(o, runs) for o in stage.overrides] + [f"sim.nthread={threads}"]
         directory = stages.stage_dir(Path(cfg.sweep_root), stage.identity)
         with stages.held(directory):
-            runs[stage.name] = train_stage(directory, overrides, stage.iterations)
+            runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval)
     evaluated = runs[evaluated_stage(cfg)]
     evals = {}
     for name, spec in cfg.experiment.evals.items():
@@ -168,7 +175,7 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
     return {**OmegaConf.to_container(curve), "rule": rule, "points": points}
 
 
-def train_stage(stage_dir: Path, overrides: list[str], iterations: int) -> Path:
+def train_stage(stage_dir: Path, overrides: list[str], iterations: int, save_interval: int) -> Path:
     """The finished run of one stage in its store dir: reused, resumed from its last checkpoint, or trained from
     scratch for `iterations`."""
     for run_dir in find_runs(stage_dir):
@@ -185,6 +192,7 @@ def train_stage(stage_dir: Path, overrides: list[str], iterations: int) -> Path:
         "train.run_root": str(stage_dir),
         "train.progress": False,
         "algo.keep_checkpoints": 0,  # every checkpoint: the learning curve evaluates the last before each mark
+        "algo.save_interval": save_interval,
     }
     for key, value in budget.items():
         OmegaConf.update(cfg, key, value)

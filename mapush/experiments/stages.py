@@ -2,11 +2,11 @@
 shares one store of finished stages.
 
 The identity of a stage is a hash of its composed, resolved config (budget included, as `train.iterations`),
-less what says where it is written, how it is logged or evaluated, how many threads ran it and how many of its
-checkpoints it keeps (`IGNORED`; sweeps keep them all, for the learning curves); a frozen stage it builds on
-(`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or of two experiments, whose
-stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to the config (a reward weight,
-the tracker's calibration, the budget) is another identity, so another run.
+less what says where it is written, how it is logged or evaluated, how many threads ran it, and how often it
+writes checkpoints and how many it keeps (`IGNORED`; sweeps keep them all, for the learning curves); a frozen
+stage it builds on (`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or of
+two experiments, whose stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to the
+config (a reward weight, the tracker's calibration, the budget) is another identity, so another run.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ IGNORED = (
     "train.rollout_threads",
     "train.update_threads",
     "algo.keep_checkpoints",
+    "algo.save_interval",
     "sim.nthread",
     "device",
     "log",
