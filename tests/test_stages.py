@@ -52,9 +52,10 @@ def test_a_sweep_stage_writes_a_checkpoint_by_every_mark_of_its_learning_curve()
     cfg = compose_config(["experiment=main", "method=ours", "task=cuboid"], config_name="sweep")
     mid, high = planned_stages(cfg)
     # quick budget, curve marks every 2.5M env-steps. mid: 500 envs x 24 steps = 12,000 env-steps per iteration,
-    # a mark every 208 iterations, so algo/mappo.yaml's 50 stands. high: 128 envs x 32 decisions x 25 control
-    # steps = 102,400 env-steps per iteration, so every 24 iterations instead of ppo_high.yaml's 50
-    assert (mid.save_interval, high.save_interval) == (50, 24)
+    # 208 iterations between marks, so algo/mappo.yaml's 50 stands. high: 128 envs x 32 decisions x 25 control
+    # steps = 102,400 env-steps per iteration, 24 between marks: every 23 iterations instead of ppo_high.yaml's 50,
+    # so model_46.pt (47 iterations, 4.81M env-steps) comes before the 5M mark, where model_48.pt (5.02M) would not
+    assert (mid.save_interval, high.save_interval) == (50, 23)
 
 
 def _sweep(cli, root, *args):

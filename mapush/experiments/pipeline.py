@@ -104,7 +104,9 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
         per_iteration = env_steps_per_iteration(stage_cfg)
         save_interval = int(stage_cfg["algo"]["save_interval"])
         if budget.get("curve"):  # a checkpoint by every mark of the learning curve, which evaluates the last before it
-            save_interval = min(save_interval, max(1, int(float(budget.curve.every_env_steps) // per_iteration)))
+            # (model_<k>.pt holds k + 1 iterations: one fewer than fit between two marks keeps each before its mark)
+            fit = int(float(budget.curve.every_env_steps) // per_iteration)
+            save_interval = min(save_interval, max(1, fit - 1))
         planned.append(
             PlannedStage(name, overrides, iterations, iterations * per_iteration, identities[name], save_interval)
         )
