@@ -67,6 +67,7 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
     if prints["old"] != prints["new"]:
         print(f"fingerprints differ, nothing adopted:\n  old {prints['old']}\n  new {prints['new']}")
         return 1
+    old_commit = commit_of(old)
     old_rows = json.loads(at_checkout(old, ["-c", PLAN, *overrides]).split("ROWS ", 1)[1])
     old_ids = {(r["job"], r["stage"]): r["identity"] for r in old_rows}
     new_rows = dry_run(overrides)
@@ -92,13 +93,13 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
         record = {
             "identity": row["identity"],
             "config": cfg,
-            "adopted_from": {"identity": old_ids[key], "commit": commit_of(old), "fingerprints": prints["new"]},
+            "adopted_from": {"identity": old_ids[key], "commit": old_commit, "fingerprints": prints["new"]},
         }
         OmegaConf.save(OmegaConf.create(record), target / stages.IDENTITY_FILE)
         print(f"adopted {row['job']} {row['stage']} ({stages.status(source, stage.iterations)}): "
               f"{old_ids[key]} -> {row['identity']}")  # fmt: skip
         adopted += 1
-    print(f"{adopted} stages adopted from {commit_of(old)} (fingerprints equal: {prints['new']})")
+    print(f"{adopted} stages adopted from {old_commit} (fingerprints equal: {prints['new']})")
     return 0
 
 
