@@ -13,6 +13,7 @@ import json
 import math
 import os
 import shutil
+import time
 from pathlib import Path
 from typing import NamedTuple
 
@@ -133,6 +134,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         with stages.held(directory):
             runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval)
     evaluated = runs[evaluated_stage(cfg)]
+    started = time.perf_counter()  # the evaluations and the learning curve: the job's cost beside its stages'
     evals = {}
     for name, spec in cfg.experiment.evals.items():
         if not OmegaConf.is_list(spec) and cfg.method.name not in spec.methods:
@@ -155,6 +157,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         "stages": {name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
         "evals": evals,
         "curve": _curve(cfg, evaluated),
+        "eval_wall_s": round(time.perf_counter() - started, 1),
         "finished": datetime.datetime.now().isoformat(timespec="seconds"),
     }
     tmp = done.with_suffix(".tmp")

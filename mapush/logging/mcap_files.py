@@ -160,8 +160,9 @@ def _part_number(path: Path) -> int:
     return int(middle[0]) if middle and middle[0].isdigit() else 0
 
 
-def training_scalars(run_dir: Path) -> dict[str, dict[int, float]]:
-    """Every training scalar of a run, `{tag: {iteration: value}}`, over `metrics.mcap` and its resumed parts.
+def training_scalars(run_dir: Path, prefix: str = "") -> dict[str, dict[int, float]]:
+    """Every training scalar of a run (whose tag starts with `prefix`), `{tag: {iteration: value}}`, over
+    `metrics.mcap` and its resumed parts.
 
     A resumed run repeats the iterations between its last checkpoint and the cut; the later file wins.
     """
@@ -170,6 +171,6 @@ def training_scalars(run_dir: Path) -> dict[str, dict[int, float]]:
         raise BadInput(f"{str(run_dir)!r} has no metrics.mcap; valid: a run dir made by `mapush train`")
     scalars: dict[str, dict[int, float]] = {}
     for path in files:
-        for topic, _, data in iter_json(path, "/metrics/"):
+        for topic, _, data in iter_json(path, "/metrics/" + prefix):
             scalars.setdefault(topic.removeprefix("/metrics/"), {})[int(data["iteration"])] = float(data["value"])
     return scalars

@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mapush.report.cost import cost_line
+
 MISSING = "\u2014"
 """An empty cell: no finished job behind it."""
 
@@ -64,6 +66,7 @@ class Table:
     note: str = ""
     findings: list[str] = field(default_factory=list)  # what holds here of the paper's findings, budget checks
     curves: dict = field(default_factory=dict)  # {panel: {label: results}} for the learning-curve plot
+    cost: dict = field(default_factory=dict)  # what the runs behind it cost (`mapush.report.cost`)
 
 
 def markdown(table: Table) -> str:
@@ -74,6 +77,8 @@ def markdown(table: Table) -> str:
     lines += ["", table.note]
     if table.findings:
         lines += ["", *(f"- {f}" for f in table.findings)]
+    if cost_line(table.cost):
+        lines += ["", cost_line(table.cost)]
     if table.missing:
         lines += ["", f"Missing cells ({MISSING}):", *(f"- {m}" for m in table.missing)]
     return "\n".join(lines) + "\n"
@@ -125,4 +130,4 @@ def sidecar(table: Table) -> dict:
         for column, cell in zip(table.columns, cells, strict=True)
     ]
     return {"table": table.name, "title": table.title, "cells": cells, "missing": table.missing,
-            "findings": table.findings}  # fmt: skip
+            "findings": table.findings, "cost": table.cost}  # fmt: skip

@@ -15,6 +15,7 @@ import yaml
 
 from mapush.experiments.pipeline import RESULT
 from mapush.report import plots
+from mapush.report.cost import measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
@@ -277,6 +278,7 @@ def write_tables(root: Path, out: Path, kinds: list[str] | None = None) -> list[
             if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
                 continue
             table = build(results, variant)
+            table.cost = measured_cost([r for r in results if r["table"] == kind and r["variant"] == variant])
             (out / f"{table.name}.md").write_text(markdown(table))
             (out / f"{table.name}.tex").write_text(latex(table))
             (out / f"{table.name}.csv").write_text(csv_text(table))
