@@ -123,7 +123,7 @@ def ship(
     episodes: int = typer.Option(50, "--episodes", help="Trials per seed of the shipped files' evaluation."),
     seeds: str = typer.Option("0,1", "--seeds", help="Comma-separated seeds of that evaluation."),
 ) -> None:
-    """Ship a finished run as a slim run dir (actor, config, policy.pt, policy.onnx) and evaluate the shipped files."""
+    """Ship a finished run as a slim run dir (actor, config, TorchScript and ONNX policies) and evaluate it."""
     from mapush.ship import ship as write_shipped
 
     if episodes < 1:
