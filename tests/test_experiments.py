@@ -147,6 +147,22 @@ def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for)
     assert iterations_for(cfg_for("level=high", "num_envs=64"), 2.0e6) == 40
 
 
+def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_training():
+    from omegaconf import OmegaConf
+
+    from mapush.config import compose_config
+    from mapush.errors import BadInput
+    from mapush.experiments.pipeline import eval_stage
+
+    cfg = compose_config(["experiment=scale", "method=ours", "task=cylinder", "agents=3"], config_name="sweep")
+    assert [eval_stage(cfg, spec) for spec in cfg.experiment.evals.values()] == ["high", "mid"]
+    ablation = compose_config(["experiment=ocb_ablation", "method=ours", "task=ocb_cuboid"], config_name="sweep")
+    OmegaConf.update(ablation, "experiment.evals.bad", {"stage": "high", "overrides": []}, force_add=True)
+    with pytest.raises(BadInput, match="evaluation 'bad' runs stage 'high', which method 'ours' does not train; "
+                                       "valid stages: mid"):  # fmt: skip
+        stage_plan(ablation)
+
+
 # ---------------------------------------------------------------------------------------------------------------
 def _fixture_result(root: Path, table: str, method: str, task: str, seed: int, evals: dict, agents: int = 2) -> None:
     job = root / f"{table}_quick" / f"method={method},seed={seed},task={task},agents={agents}"
@@ -177,10 +193,10 @@ def fixture_tables(tmp_path):
     for seed, (sr20, s20, sr40, s40) in enumerate([(0.5, 15.0, 0.7, 22.0), (0.6, 14.0, 0.8, 20.0)]):
         evals = {"t20": (sr20, s20 / 20, s20), "t40": (sr40, s40 / 40, s40)}
         _fixture_result(runs, "ocb_ablation", "ours", "ocb_cuboid", seed, evals)
-    # scale: 1 and 3 robots
+    # scale: 1 and 3 robots; the 3-robot jobs' mid levels evaluated alone too
     _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.2, 0.9, 0.0)}, agents=1)
-    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0)}, agents=3)
-    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0)}, agents=3)
+    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0), "mid": (0.7, 0.6, 12.0)}, agents=3)
+    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0), "mid": (0.74, 0.5, 10.0)}, agents=3)
     return runs
 
 
@@ -190,7 +206,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
     assert "main_quick.{md,tex,csv,json}: 6/48 cells filled" in proc.stdout
-    assert "scale_quick.{md,tex,csv,json}: 4/8 cells filled" in proc.stdout
+    assert "scale_quick.{md,tex,csv,json}: 5/12 cells filled" in proc.stdout
 
     md = (out / "main_quick.md").read_text()
     # ours, cuboid: S.R. 80 % and 70 % -> 75.0 +- 5.0; C.T. 0.60 and 0.70 -> 0.65 +- 0.05; paper 77.5 +- 3.0, 0.66
@@ -231,8 +247,14 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert "| Ours w/o OCB | \u2014 (13.0 \u00b1 1.2) |" in ocb
 
     scale = (out / "scale_quick.md").read_text()
-    assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 |" in scale
-    assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) |" in scale
+    # 3 robots: hierarchy 60 and 80 % -> 70.0 +- 10.0, C.T. 0.45 +- 0.05; mid level 70 and 74 % -> 72.0 +- 2.0
+    assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 | 72.0 \u00b1 2.0 |" in scale
+    assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) | \u2014 |" in scale
+    assert "- Best robot count here: 3 (70.0 \u00b1 10.0 % S.R.)" in scale
+    assert (
+        "- Mid level with 3 robots: 72.0 \u00b1 2.0 % S.R. over 2 seeds; the original's best stored cylinder mid "
+        "level reached 72.3 %: below it"
+    ) in scale
     assert "- 2 robots: no finished job" in scale
     assert (out / "scale_quick.png").stat().st_size > 1000
 

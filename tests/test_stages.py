@@ -83,6 +83,8 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     results = [json.loads(p.read_text()) for p in sorted(root.glob(f"*/*/{RESULT}"))]
     assert sorted(r["experiment"] for r in results) == ["main", "scale"]
     assert results[0]["stages"] == results[1]["stages"]  # both cells name the same run dirs
+    mid_eval = Path(results[1]["evals"]["mid"]["file"])  # the study also evaluates the mid level alone
+    assert mid_eval.parent == Path(results[1]["stages"]["mid"]) and mid_eval.name == "eval_mid.json"
     assert len(find_runs(root / "stages")) == 2  # one mid and one high run in all
     for run in map(Path, results[0]["stages"].values()):
         assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]  # trained once, not resumed

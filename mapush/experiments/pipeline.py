@@ -47,12 +47,19 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
             f"experiment {experiment.name!r} evaluates stage {evaluated!r}, which method "
             f"{method.name!r} lacks; valid stages: {', '.join(names)}"
         )
+    trained = names[: names.index(evaluated) + 1]
+    for name, spec in experiment.evals.items():
+        if applies(spec, method.name) and eval_stage(cfg, spec) not in trained:
+            raise BadInput(
+                f"experiment {experiment.name!r} evaluation {name!r} runs stage {eval_stage(cfg, spec)!r}, which "
+                f"method {method.name!r} does not train; valid stages: {', '.join(trained)}"
+            )
     budget = budget_of(cfg)
     job = [f"task={cfg.task.name}", f"seed={cfg.seed}"]
     if cfg.agents is not None:
         job.append(f"task.num_agents={cfg.agents}")
     plan = []
-    for name in names[: names.index(evaluated) + 1]:
+    for name in trained:
         if name not in budget.stages:
             raise BadInput(f"budget {cfg.budget!r} of experiment {experiment.name!r} has no stage {name!r}")
         overrides = [*method.overrides, *method.stages[name], *job, *cfg.overrides]
@@ -137,10 +144,11 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     started = time.perf_counter()  # the evaluations and the learning curve: the job's cost beside its stages'
     evals = {}
     for name, spec in cfg.experiment.evals.items():
-        if not OmegaConf.is_list(spec) and cfg.method.name not in spec.methods:
+        if not applies(spec, cfg.method.name):
             continue  # an evaluation for other methods only
+        target = runs[eval_stage(cfg, spec)]
         overrides = eval_overrides(spec)
-        path = evaluate(evaluated, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
+        path = evaluate(target, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
     result = {
@@ -207,8 +215,20 @@ def train_stage(stage_dir: Path, overrides: list[str], iterations: int, save_int
 
 
 def eval_overrides(spec) -> list[str]:
-    """The overrides of one of an experiment's evaluations: a list, or `{overrides: [...], methods: [...]}`."""
-    return list(spec if OmegaConf.is_list(spec) else spec.overrides)
+    """The overrides of one of an experiment's evaluations: a list, or `{overrides: [...], methods: [...],
+    stage: ...}` (methods: only theirs; stage: a trained stage other than the evaluated one, e.g. `mid`)."""
+    return list(spec if OmegaConf.is_list(spec) else spec.get("overrides", []))
+
+
+def applies(spec, method: str) -> bool:
+    """Whether an experiment's evaluation is made for `method`'s jobs (a spec's `methods`, else every method)."""
+    return OmegaConf.is_list(spec) or method in spec.get("methods", [method])
+
+
+def eval_stage(cfg: DictConfig, spec) -> str:
+    """The stage an evaluation runs: its own `stage`, or else the experiment's evaluated stage."""
+    own = None if OmegaConf.is_list(spec) else spec.get("stage")
+    return own or evaluated_stage(cfg)
 
 
 def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:

@@ -98,15 +98,19 @@ def scale_plot(table, path: Path) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))
     counts = [int(labels[0]) for labels, _ in table.rows]
-    for ax, k, label in ((axes[0], 0, "S.R. (%)"), (axes[1], 1, "C.T. (normalized)")):
+    series = ((axes[0], 0, "hierarchy"), (axes[0], 2, "mid level"), (axes[1], 1, "hierarchy"))
+    for ax, k, name in series:
         pts = [
             (n, np.mean(cells[k].values), np.std(cells[k].values))
             for n, (_, cells) in zip(counts, table.rows, strict=True)
-            if cells[k].values
+            if len(cells) > k and cells[k].values
         ]
         if pts:
             n, m, s = zip(*pts, strict=True)
-            ax.errorbar(n, m, yerr=s, marker="o", capsize=3)
+            ax.errorbar(n, m, yerr=s, marker="o", capsize=3, label=name)
+    for ax, label in ((axes[0], "S.R. (%)"), (axes[1], "C.T. (normalized)")):
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
         ax.set_xlabel("robots")
         ax.set_ylabel(label)
         ax.set_xticks(counts)
