@@ -147,6 +147,23 @@ def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for)
     assert iterations_for(cfg_for("level=high", "num_envs=64"), 2.0e6) == 40
 
 
+def test_reproduce_plans_every_experiment_and_refuses_an_experiment_override(cli, tmp_path):
+    root = tmp_path / "sweeps"
+    proc = cli("reproduce", "--dry-run", *SMOKE, f"sweep_root={root}", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    planned = [line.split(":")[0] for line in proc.stdout.splitlines() if line.startswith("sweep ")]
+    assert planned == [f"sweep {root}/{name}_smoke_debug-smoke" for name in ("main", "scale", "ocb_ablation")]
+    assert not root.exists() and not (tmp_path / "out").exists()  # a dry run writes nothing
+    bad = cli("reproduce", "experiment=main", *SMOKE, f"sweep_root={root}")
+    assert bad.returncode == 2
+    assert (
+        bad.stderr.strip()
+        .splitlines()[-1]
+        .endswith("'experiment=main': reproduce runs every experiment; valid: overrides other than experiment=")
+    )
+    assert not root.exists()
+
+
 def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_training():
     from omegaconf import OmegaConf
 

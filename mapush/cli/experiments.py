@@ -49,17 +49,49 @@ def scale(
     _sweep(["experiment=scale", *counts, *ctx.args], dry_run)
 
 
-def _sweep(overrides: list[str], dry_run: bool = False) -> None:
+REPRODUCED = ("main", "scale", "ocb_ablation")
+"""The experiments `mapush reproduce` runs, in order (the scalability study reuses the main table's stages)."""
+
+
+@app.command(context_settings=PASS_THROUGH)
+def reproduce(
+    ctx: typer.Context,
+    out: Path = typer.Option(Path("results"), "--out", help="Where to write the tables."),
+    dry_run: bool = DRY_RUN,
+) -> None:
+    """Every table of the paper in one command: the main, scalability and OCB-ablation sweeps, then the tables.
+
+    Overrides go to every sweep (`budget=paper`, `launcher=slurm`, ...). Like each sweep, it resumes where it was
+    cut: run it again until every job has finished. A sweep with failed jobs does not stop the others; the
+    tables are written from what finished, and the command exits 1. `--dry-run` prints each sweep's plan against
+    the stage store as it is now, so a stage that an earlier sweep would train shows as `train` in both.
+    """
+    overrides = list(ctx.args)
+    given = [o for o in overrides if o.partition("=")[0].lstrip("+~") == "experiment"]
+    if given:
+        raise BadInput(f"{given[0]!r}: reproduce runs every experiment; valid: overrides other than experiment=")
+    codes = [_sweep([f"experiment={name}", *overrides], dry_run, stop=False) for name in REPRODUCED]
+    if dry_run:
+        return
+    root = next((o.partition("=")[2] for o in overrides if o.startswith("sweep_root=")), "runs")
+    tables(runs=Path(root), out=out, only=[])
+    if any(codes):
+        raise typer.Exit(1)
+
+
+def _sweep(overrides: list[str], dry_run: bool = False, stop: bool = True) -> int:
+    """Run (or with `dry_run` plan) one sweep; its exit code, raised as typer.Exit when `stop` and nonzero."""
     from mapush.experiments.sweep import dry_run as print_plan
     from mapush.experiments.sweep import report, run_sweep
 
     if dry_run:
         print_plan(overrides)
-        return
+        return 0
     sweep_dir, finished, failed = run_sweep(overrides)
     code = report(sweep_dir, finished, failed)
-    if code:
+    if code and stop:
         raise typer.Exit(code)
+    return code
 
 
 @app.command()
