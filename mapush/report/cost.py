@@ -44,7 +44,8 @@ def _evaluated_stage(result: dict) -> Path:
 
 
 def _threads(run_dir: Path) -> int:
-    return max(1, int(load_run_config(run_dir).sim.nthread))
+    """The cores a run's physics used: `sim.nthread`, where 0 means every core of the machine."""
+    return int(load_run_config(run_dir).sim.nthread) or os.cpu_count() or 1
 
 
 def measured_cost(results: list[dict], cores: int | None = None) -> dict:
