@@ -39,23 +39,25 @@ def two_jobs(tmp_path) -> list[dict]:
     a = _stage(tmp_path, "a", 1, [{0: (1200.0, 600.0), 1: (1200.0, 600.0)}, {1: (2400.0, 1200.0)}])
     b = _stage(tmp_path, "b", 2, [{0: (2700.0, 900.0)}])  # 3600 s on 2 threads
     finished = datetime.datetime(2026, 1, 1, 12, 0, 0)
-    stamp = finished.timestamp() - 1800.0  # the second job's evaluations: 1800 s after b's export
+    stamp = finished.timestamp() - 1800.0  # the first job's evaluations: 1800 s after b's export
     os.utime(b / "policy.pt", (stamp, stamp))
     stages = {"mid": str(a), "high": str(b)}
+    later = (finished + datetime.timedelta(hours=1)).isoformat()
     return [
-        {"stages": stages, "eval_wall_s": 900.0, "finished": finished.isoformat()},
-        {"stages": dict(stages), "finished": finished.isoformat()},  # reuses both stages
+        {"stages": stages, "finished": finished.isoformat()},  # before eval_wall_s: file times
+        {"stages": dict(stages), "eval_wall_s": 900.0, "threads": 2, "finished": later},  # reuses both stages
     ]
 
 
 def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
     cost = measured_cost(two_jobs, cores=2)
     # training: a 1800 + 3600 s x 1 thread = 1.5 core-h; b 3600 s x 2 threads = 2 core-h
-    # evaluation: 900 s x 2 threads (b's) = 0.5 core-h recorded; 1800 s x 2 = 1 core-h from file times
+    # evaluation: 1800 s x 2 threads (b's) = 1 core-h from file times; 900 s x 2 recorded threads = 0.5 core-h
     assert cost == {
         "stages": 2,
+        "unreadable_stages": 0,
         "jobs": 2,
-        "missing_runs": 0,
+        "jobs_without_evaluation_time": 0,
         "training_core_h": 3.5,
         "evaluation_core_h": 1.5,
         "evaluation_jobs_from_file_times": 1,
@@ -64,20 +66,37 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
     }
 
 
+def test_only_the_first_job_to_evaluate_a_stage_takes_its_time_from_file_times(two_jobs):
+    reuser = {k: v for k, v in two_jobs[1].items() if k not in ("eval_wall_s", "threads")}  # an old reusing job
+    cost = measured_cost([two_jobs[0], reuser], cores=2)
+    assert (cost["jobs"], cost["jobs_without_evaluation_time"], cost["evaluation_core_h"]) == (1, 1, 1.0)
+
+
 def test_the_cost_line_stands_under_the_table_and_in_its_sidecar(two_jobs):
     cost = measured_cost(two_jobs, cores=2)
     table = Table("t", "T", ["Task"], ["S.R."], [], cost=cost)
     line = (
-        "Cost, measured from the runs: training 3.5 core-hours over 2 distinct stages, evaluation 1.5 core-hours "
-        "over 2 jobs, 1 of them from file times: 2.5 hours of this 2-core machine with every core busy"
+        "Cost, measured from the runs (each stage once, each of its iterations once): training 3.5 core-hours over "
+        "2 distinct stages, evaluation 1.5 core-hours over 2 jobs (1 of the jobs' evaluation times from file "
+        "times): 2.5 hours of a 2-core machine with every core busy"
     )
     assert line in markdown(table).splitlines()
     assert sidecar(table)["cost"] == cost
     assert cost_line(measured_cost([], cores=2)) == ""
 
 
-def test_stage_runs_that_are_not_there_are_left_out_and_said(two_jobs, tmp_path):
+def test_stage_runs_are_found_under_the_sweep_root_or_counted_as_unreadable(two_jobs, tmp_path):
+    # a job stored relative to the dir its sweep ran in: sweep root <root>, stages under <root>/stages/
+    root = tmp_path / "elsewhere" / "sweeps"
+    stage = root / "stages" / "abc" / "mid" / "run"
+    stage.parent.mkdir(parents=True)
+    os.rename(two_jobs[0]["stages"]["mid"], stage)
+    relative = {"stages": {"mid": "runs/sweeps/stages/abc/mid/run"}, "eval_wall_s": 36.0, "threads": 1,
+                "job_dir": str(root / "main_quick" / "job"), "finished": "2026-01-01T12:00:00"}  # fmt: skip
     gone = {"stages": {"mid": str(tmp_path / "gone")}, "eval_wall_s": 10.0, "finished": "2026-01-01T12:00:00"}
-    cost = measured_cost([*two_jobs, gone], cores=2)
-    assert (cost["stages"], cost["jobs"], cost["missing_runs"], cost["machine_h"]) == (2, 2, 1, 2.5)
-    assert "(1 stage run dirs not found, left out)" in cost_line(cost)
+    cost = measured_cost([relative, gone], cores=1)
+    # the relative stage is a's 5400 s on 1 thread; its job's 36 s; the missing stage and its job are left out
+    assert (cost["stages"], cost["unreadable_stages"], cost["jobs"], cost["jobs_without_evaluation_time"]) == (
+        1, 1, 1, 1)  # fmt: skip
+    assert (cost["training_core_h"], cost["evaluation_core_h"]) == (1.5, 0.01)
+    assert "1 stage runs not found or unreadable, left out" in cost_line(cost)

@@ -156,11 +156,13 @@ def test_reproduce_plans_every_experiment_and_refuses_an_experiment_override(cli
     assert not root.exists() and not (tmp_path / "out").exists()  # a dry run writes nothing
     bad = cli("reproduce", "experiment=main", *SMOKE, f"sweep_root={root}")
     assert bad.returncode == 2
-    assert (
-        bad.stderr.strip()
-        .splitlines()[-1]
-        .endswith("'experiment=main': reproduce runs every experiment; valid: overrides other than experiment=")
+    last = bad.stderr.strip().splitlines()[-1]
+    assert last.endswith(
+        "experiment=main: reproduce runs every experiment on its own axes; valid: other overrides "
+        "(budget=, seed=, launcher=, sweep_root=, stage overrides)"
     )
+    late = cli("reproduce", *SMOKE, f"sweep_root={root}", "agents_typo=3")  # wrong for every sweep: none starts
+    assert late.returncode == 2 and "agents_typo" in late.stderr
     assert not root.exists()
 
 
@@ -175,8 +177,8 @@ def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_tr
     assert [eval_stage(cfg, spec) for spec in cfg.experiment.evals.values()] == ["high", "mid"]
     ablation = compose_config(["experiment=ocb_ablation", "method=ours", "task=ocb_cuboid"], config_name="sweep")
     OmegaConf.update(ablation, "experiment.evals.bad", {"stage": "high", "overrides": []}, force_add=True)
-    with pytest.raises(BadInput, match="evaluation 'bad' runs stage 'high', which method 'ours' does not train; "
-                                       "valid stages: mid"):  # fmt: skip
+    with pytest.raises(BadInput, match="evaluation 'bad' runs stage 'high', which its 'ours' jobs do not train "
+                                       r"\(they stop at 'mid'\); valid stages: mid"):  # fmt: skip
         stage_plan(ablation)
 
 

@@ -66,15 +66,22 @@ def reproduce(
     tables are written from what finished, and the command exits 1. `--dry-run` prints each sweep's plan against
     the stage store as it is now, so a stage that an earlier sweep would train shows as `train` in both.
     """
+    from mapush.experiments.sweep import sweep_overrides
+
     overrides = list(ctx.args)
-    given = [o for o in overrides if o.partition("=")[0].lstrip("+~") == "experiment"]
-    if given:
-        raise BadInput(f"{given[0]!r}: reproduce runs every experiment; valid: overrides other than experiment=")
+    keys = {o.partition("=")[0].lstrip("+~"): o.partition("=")[2].strip("'\"") for o in overrides}
+    axes = [k for k in ("experiment", "method", "task", "agents") if k in keys]
+    if axes:
+        raise BadInput(
+            f"{axes[0]}={keys[axes[0]]}: reproduce runs every experiment on its own axes; valid: other overrides "
+            "(budget=, seed=, launcher=, sweep_root=, stage overrides)"
+        )
+    for name in REPRODUCED:  # every sweep's overrides checked before the first one trains
+        sweep_overrides([f"experiment={name}", *overrides])
     codes = [_sweep([f"experiment={name}", *overrides], dry_run, stop=False) for name in REPRODUCED]
     if dry_run:
         return
-    root = next((o.partition("=")[2] for o in overrides if o.startswith("sweep_root=")), "runs")
-    tables(runs=Path(root), out=out, only=[])
+    tables(runs=Path(keys.get("sweep_root", "runs")), out=out, only=[])
     if any(codes):
         raise typer.Exit(1)
 

@@ -1,4 +1,5 @@
-"""One sweep job: train a method's stages in order, evaluate the experiment's stage, write `result.json`.
+"""One sweep job: train a method's stages in order, run the experiment's evaluations (of the evaluated stage, or
+of another trained stage an evaluation names), write `result.json`.
 
 Stages live in the sweep root's store (`stages.py`), one run per stage identity, shared by every job and
 experiment that composes the same stage; a job dir holds `result.json`, which names the run dir of each stage.
@@ -52,8 +53,17 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
         if applies(spec, method.name) and eval_stage(cfg, spec) not in trained:
             raise BadInput(
                 f"experiment {experiment.name!r} evaluation {name!r} runs stage {eval_stage(cfg, spec)!r}, which "
-                f"method {method.name!r} does not train; valid stages: {', '.join(trained)}"
+                f"its {method.name!r} jobs do not train (they stop at {evaluated!r}); valid stages: "
+                f"{', '.join(trained)}"
             )
+    curve = budget_of(cfg).get("curve")
+    if curve and curve.eval not in experiment.evals:
+        raise BadInput(f"budget {cfg.budget!r} curve eval {curve.eval!r}; valid: {', '.join(experiment.evals)}")
+    if curve and eval_stage(cfg, experiment.evals[curve.eval]) != evaluated:
+        raise BadInput(
+            f"budget {cfg.budget!r} draws its learning curve with evaluation {curve.eval!r}, which runs another "
+            f"stage than the evaluated {evaluated!r}; valid: an evaluation of {evaluated!r}"
+        )
     budget = budget_of(cfg)
     job = [f"task={cfg.task.name}", f"seed={cfg.seed}"]
     if cfg.agents is not None:
@@ -166,6 +176,8 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         "evals": evals,
         "curve": _curve(cfg, evaluated),
         "eval_wall_s": round(time.perf_counter() - started, 1),
+        "threads": threads,
+        "machine_cores": os.cpu_count(),
         "finished": datetime.datetime.now().isoformat(timespec="seconds"),
     }
     tmp = done.with_suffix(".tmp")

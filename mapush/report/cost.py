@@ -1,20 +1,25 @@
 """What a table cost, measured from the runs behind it: every distinct stage's training time and every job's
-evaluation time, in core-hours and in hours of this machine.
+evaluation time, in core-hours and in hours of the machine that ran them.
 
-A stage that several jobs or experiments share is counted once. Training time is the PPO iterations' time as
-rsl-rl measures it (`Perf/collection_time` + `Perf/learning_time` in `metrics.mcap`; a resumed run's repeated
-iterations once), times the stage's MuJoCo threads. Evaluation time is what a job spent after training (its
-evaluations and learning curve, `eval_wall_s` in `result.json`); jobs that finished before the pipeline recorded
-it get it from file times (the evaluated stage's exported policy to the job's `finished`).
+Each table counts a stage once, however many of its jobs use it; tables that share stages (the main table and the
+scalability study) each count them, so their costs do not add up. Training time is the PPO iterations' time as
+rsl-rl measures it (`Perf/collection_time` + `Perf/learning_time` in `metrics.mcap`), each iteration once: what an
+uninterrupted run costs, without the iterations a cut run repeats after resuming. It is multiplied by the stage's
+MuJoCo threads. Evaluation time is what a job spent after training (its evaluations and learning curve,
+`eval_wall_s` in `result.json`) times the job's threads. Jobs that finished before the pipeline recorded it get it
+from file times (the evaluated stage's exported policy to the job's `finished`), but only the first job to
+evaluate a stage: a later one that reused it left no trace of its own time.
 """
 
 from __future__ import annotations
 
 import datetime
 import os
+from collections import Counter
 from pathlib import Path
 
 from mapush.config import load_run_config
+from mapush.errors import BadInput
 from mapush.logging.mcap_files import training_scalars
 from mapush.rl.runner import POLICY_FILE
 
@@ -29,57 +34,91 @@ def stage_core_seconds(run_dir: Path) -> float:
     return seconds * _threads(run_dir)
 
 
-def job_evaluation(result: dict) -> tuple[float, bool]:
-    """(core-seconds a job spent evaluating, whether the job recorded them itself rather than file times)."""
-    evaluated = _evaluated_stage(result)
-    threads = _threads(evaluated)
-    if "eval_wall_s" in result:
-        return float(result["eval_wall_s"]) * threads, True
-    finished = datetime.datetime.fromisoformat(result["finished"]).timestamp()
-    return max(0.0, finished - os.path.getmtime(evaluated / POLICY_FILE)) * threads, False
-
-
-def _evaluated_stage(result: dict) -> Path:
-    return Path(list(result["stages"].values())[-1])  # training stops at the evaluated stage
-
-
 def _threads(run_dir: Path) -> int:
-    """The cores a run's physics used: `sim.nthread`, where 0 means every core of the machine."""
+    """The cores a run's physics used: `sim.nthread`, where 0 means every core of this machine."""
     return int(load_run_config(run_dir).sim.nthread) or os.cpu_count() or 1
+
+
+def stage_paths(result: dict) -> list[Path]:
+    """The run dirs of a job's stages, in training order. A path stored relative to the directory the sweep ran in
+    (`runs/sweeps/stages/...`) that is not there from here is looked up under the job's own sweep root."""
+    paths = []
+    for text in result.get("stages", {}).values():
+        path = Path(text)
+        if not path.is_dir() and not path.is_absolute() and "stages" in path.parts and "job_dir" in result:
+            path = Path(result["job_dir"]).parents[1].joinpath(*path.parts[path.parts.index("stages") :])
+        paths.append(path)
+    return paths
 
 
 def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     """The cost of the jobs' `results`: training over their distinct stages, evaluation over the jobs, and the
-    hours of a `cores`-core machine (default: this one's) that both take with every core busy."""
-    cores = cores or os.cpu_count() or 1
+    hours of a `cores`-core machine (default: the one the jobs record, else this one) with every core busy.
+    Stages or jobs whose runs cannot be read are left out and counted."""
     results = [r for r in results if r.get("stages")]  # hand-made results may name none
-    stages = {Path(path).resolve() for r in results for path in r["stages"].values()}
-    present = [path for path in stages if path.is_dir()]  # a results tree copied without its stage runs: not all
-    training = sum(stage_core_seconds(path) for path in present)
-    evaluations = [job_evaluation(r) for r in results if _evaluated_stage(r).is_dir()]
-    evaluation = sum(seconds for seconds, _ in evaluations)
+    stages = {path.resolve() for r in results for path in stage_paths(r)}
+    training, unreadable = 0.0, 0
+    for path in stages:
+        try:
+            training += stage_core_seconds(path)
+        except (BadInput, OSError):  # missing, or a slim copy without its logs
+            unreadable += 1
+    evaluation, jobs, from_file_times, unknown = 0.0, 0, 0, 0
+    first_to_evaluate = _first_to_evaluate(results)
+    for r in results:
+        evaluated = stage_paths(r)[-1]  # training stops at the evaluated stage
+        try:
+            if "eval_wall_s" in r:
+                evaluation += float(r["eval_wall_s"]) * int(r.get("threads") or _threads(evaluated))
+            elif first_to_evaluate.get(evaluated.resolve()) is r:
+                finished = datetime.datetime.fromisoformat(r["finished"]).timestamp()
+                spent = max(0.0, finished - os.path.getmtime(evaluated / POLICY_FILE))
+                evaluation += spent * _threads(evaluated)
+                from_file_times += 1
+            else:
+                unknown += 1
+                continue
+            jobs += 1
+        except (BadInput, OSError, KeyError, ValueError):
+            unknown += 1
+    recorded = Counter(int(r["machine_cores"]) for r in results if r.get("machine_cores"))
+    cores = cores or (recorded.most_common(1)[0][0] if recorded else os.cpu_count() or 1)
     return {
-        "stages": len(present),
-        "jobs": len(evaluations),
-        "missing_runs": len(stages) - len(present),
+        "stages": len(stages) - unreadable,
+        "unreadable_stages": unreadable,
+        "jobs": jobs,
+        "jobs_without_evaluation_time": unknown,
         "training_core_h": round(training / 3600, 2),
         "evaluation_core_h": round(evaluation / 3600, 2),
-        "evaluation_jobs_from_file_times": sum(1 for _, recorded in evaluations if not recorded),
+        "evaluation_jobs_from_file_times": from_file_times,
         "cores": cores,
         "machine_h": round((training + evaluation) / 3600 / cores, 2),
     }
 
 
+def _first_to_evaluate(results: list[dict]) -> dict[Path, dict]:
+    """Per evaluated stage, the earliest-finished job that evaluates it (the one that may have trained it)."""
+    first: dict[Path, dict] = {}
+    for r in sorted(results, key=lambda r: str(r.get("finished", ""))):
+        first.setdefault(stage_paths(r)[-1].resolve(), r)
+    return first
+
+
 def cost_line(cost: dict) -> str:
-    """The cost as one sentence under a table."""
-    if not cost.get("jobs"):
+    """The cost as one sentence under a table ("" when there is nothing to say)."""
+    if not cost.get("jobs") and not cost.get("unreadable_stages"):
         return ""
-    estimated = cost["evaluation_jobs_from_file_times"]
-    note = f", {estimated} of them from file times" if estimated else ""
-    if cost["missing_runs"]:
-        note += f" ({cost['missing_runs']} stage run dirs not found, left out)"
+    notes = []
+    if cost["evaluation_jobs_from_file_times"]:
+        notes.append(f"{cost['evaluation_jobs_from_file_times']} of the jobs' evaluation times from file times")
+    if cost["jobs_without_evaluation_time"]:
+        notes.append(f"{cost['jobs_without_evaluation_time']} jobs without a recorded evaluation time left out")
+    if cost["unreadable_stages"]:
+        notes.append(f"{cost['unreadable_stages']} stage runs not found or unreadable, left out")
+    extra = f" ({'; '.join(notes)})" if notes else ""
     return (
-        f"Cost, measured from the runs: training {cost['training_core_h']:.1f} core-hours over {cost['stages']} "
-        f"distinct stages, evaluation {cost['evaluation_core_h']:.1f} core-hours over {cost['jobs']} jobs{note}: "
-        f"{cost['machine_h']:.1f} hours of this {cost['cores']}-core machine with every core busy"
+        f"Cost, measured from the runs (each stage once, each of its iterations once): training "
+        f"{cost['training_core_h']:.1f} core-hours over {cost['stages']} distinct stages, evaluation "
+        f"{cost['evaluation_core_h']:.1f} core-hours over {cost['jobs']} jobs{extra}: {cost['machine_h']:.1f} "
+        f"hours of a {cost['cores']}-core machine with every core busy"
     )

@@ -90,7 +90,7 @@ def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str
 
 
 def scale_plot(table, path: Path) -> None:
-    """S.R. and C.T. against the number of robots, with std error bars."""
+    """S.R. (the hierarchy's and the mid level's) and C.T. against the number of robots, with std error bars."""
     import matplotlib
 
     matplotlib.use("Agg")
