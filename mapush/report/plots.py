@@ -52,9 +52,10 @@ def budget_verdict(label: str, results: list[dict]) -> str | None:
         return f"{label}: too few checkpoints to judge the budget"
     mean, std = 100 * np.mean(gains), 100 * np.std(gains)
     verdict = "flattened" if mean < 100 * float(rule["max_gain"]) else "NOT flattened: still learning"
+    seeds = f"{len(gains)} seed" + ("s" if len(gains) != 1 else "")
     return (
         f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
-        f"points over {len(gains)} seeds (rule: < {100 * float(rule['max_gain']):.0f}): {verdict}"
+        f"points over {seeds} (rule: < {100 * float(rule['max_gain']):.0f}): {verdict}"
     )
 
 
