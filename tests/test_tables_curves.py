@@ -135,3 +135,17 @@ def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
         "Cuboid: on legged Go1s Ours loses 35.0 points of S.R., not within 10 points; "
         "episodes ended by robot_tilt 35 %, robot_collision 1 % (mean over 2 seeds)"
     )
+
+
+def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
+    from mapush.report.formats import Cell
+    from mapush.report.tables import _reference_mid_finding
+
+    def rows(mid):  # the 3-robot row: hierarchy S.R., C.T., mid-level S.R.
+        return [(["3"], [Cell([50.0]), Cell([0.5]), Cell(mid)])]
+
+    # 61 +- 1 is 11.3 points below 72.3: beyond the spread; 80 +- 2 at or above; 71 +- 3 within it
+    assert _reference_mid_finding(rows([60.0, 62.0]))[0].endswith("reached 72.3 %: below it")
+    assert _reference_mid_finding(rows([78.0, 82.0]))[0].endswith("reached 72.3 %: at or above it")
+    assert _reference_mid_finding(rows([68.0, 74.0]))[0].endswith("below it, within the seeds' spread")
+    assert _reference_mid_finding(rows([])) == []
