@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from mapush.config import compose_config
-from mapush.experiments.pipeline import RESULT, planned_stages
+from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
+from mapush.experiments.stages import identity_of
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
@@ -88,3 +89,80 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     assert len(find_runs(root / "stages")) == 2  # one mid and one high run in all
     for run in map(Path, results[0]["stages"].values()):
         assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]  # trained once, not resumed
+
+
+def _job_cfg(root: Path, *overrides: str):
+    return compose_config(
+        ["experiment=main", "method=sa", "task=cylinder", "budget=smoke", "overrides=['debug=smoke']",
+         f"sweep_root={root}", *overrides],
+        config_name="sweep",
+    )  # fmt: skip
+
+
+def _fake_result(cfg, identities: dict[str, str]) -> dict:
+    """A finished job's result whose stage runs lie in the store under `identities` (nothing trained)."""
+    store = Path(cfg.sweep_root) / "stages"
+    return {
+        "stages": {name: str(store / key / name / "cylinder" / "run") for name, key in identities.items()},
+        "evals": {"main": {"success_rate": 0.5}},
+        "curve": {"points": []},
+    }
+
+
+def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli, tmp_path):
+    root = tmp_path / "sweeps"
+    args = ["sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder", *SMOKE, f"sweep_root={root}"]
+    plan = cli(*args)
+    assert plan.returncode == 0, plan.stderr
+    sweep_dir = Path(plan.stdout.split(":")[0].removeprefix("sweep "))
+    job = sweep_dir / "method=sa,seed=0,task=cylinder"
+    job.mkdir(parents=True)
+    cfg = _job_cfg(root)
+    now = {stage.name: stage.identity for stage in planned_stages(cfg)}
+
+    (job / RESULT).write_text(json.dumps(_fake_result(cfg, now)))  # made by the stages planned now
+    plan = cli(*args)
+    assert "1 jobs, 1 finished; 0 stages to run" in plan.stdout and "were made by" not in plan.stdout
+
+    # made when the high level's budget was another: listed, kept by default, trained again on request
+    (job / RESULT).write_text(json.dumps(_fake_result(cfg, {**now, "high": "00000000feedbeef"})))
+    plan = cli(*args)
+    assert "1 jobs, 1 finished; 0 stages to run" in plan.stdout
+    assert f"its stages changed (high: 00000000feedbeef -> {now['high']})" in plan.stdout
+    assert "kept as they are (rerun_changed=true runs them again)" in plan.stdout
+    plan = cli(*args, "rerun_changed=true")
+    assert "they run again" in plan.stdout and "2 stages to run; 2 to train" in plan.stdout
+
+    # an evaluation the experiment now asks for and the result lacks
+    stale = _fake_result(cfg, now)
+    stale["evals"] = {"old_name": {}}
+    (job / RESULT).write_text(json.dumps(stale))
+    assert "its evaluations changed (old_name -> main)" in cli(*args).stdout
+
+
+def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp_path):
+    cfg = _job_cfg(tmp_path)
+    result = _fake_result(cfg, {stage.name: stage.identity for stage in planned_stages(cfg)})
+    assert result_changes(result, cfg, planned_stages(cfg)) == ""
+    longer = _job_cfg(tmp_path, "experiment.budgets.smoke.stages.high.env_steps=1600")
+    changes = result_changes(result, longer, planned_stages(longer))
+    assert changes.startswith("its stages changed (high: ") and "mid" not in changes
+
+
+@pytest.mark.slow
+def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(tmp_path, capsys):
+    base = ["experiment=ocb_ablation", "method=ours", "budget=smoke", "overrides=['debug=smoke']"]
+    base.append(f"sweep_root={tmp_path}")
+    job = tmp_path / "job"
+    job.mkdir()  # Hydra makes a job's dir
+    first = run_job(compose_config(base, config_name="sweep"), job, 1)
+    longer = [*base, "experiment.budgets.smoke.stages.mid.env_steps=64"]  # 2 iterations instead of 1
+    capsys.readouterr()
+    assert run_job(compose_config(longer, config_name="sweep"), job, 1) == first
+    assert "kept (rerun_changed=true runs it again)" in capsys.readouterr().out
+    again_cfg = compose_config([*longer, "rerun_changed=true"], config_name="sweep")
+    again = run_job(again_cfg, job, 1)
+    assert json.loads((job / SUPERSEDED).read_text()) == first
+    assert identity_of(Path(again["stages"]["mid"])) == planned_stages(again_cfg)[0].identity
+    assert identity_of(Path(again["stages"]["mid"])) != identity_of(Path(first["stages"]["mid"]))
+    assert result_changes(again, again_cfg, planned_stages(again_cfg)) == ""

@@ -32,6 +32,8 @@ from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import checkpoints, find_runs, is_complete
 
 RESULT = "result.json"
+SUPERSEDED = "result.superseded.json"
+"""Where a job's earlier result goes when the experiment changed under it (`result_changes`)."""
 
 
 def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
@@ -140,12 +142,21 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     """Train, evaluate and record one job; returns the result (also written to `job_dir/result.json`)."""
     job_dir = Path(job_dir)
     done = job_dir / RESULT
+    planned = planned_stages(cfg)
     if done.is_file():
-        return json.loads(done.read_text())
+        result = json.loads(done.read_text())
+        changed = result_changes(result, cfg, planned)
+        if not changed:
+            return result
+        if not cfg.rerun_changed:
+            print(f"mapush: {job_dir.name}: {changed} since its {RESULT}; kept (rerun_changed=true runs it again)")
+            return result
+        print(f"mapush: {job_dir.name}: {changed} since its {RESULT}; running it again ({SUPERSEDED} keeps the old)")
+        os.replace(done, job_dir / SUPERSEDED)
     torch.set_num_threads(threads)
     budget = budget_of(cfg)
     runs: dict[str, Path] = {}
-    for stage in planned_stages(cfg):
+    for stage in planned:
         overrides = [_resolve_stage_refs(o, runs) for o in stage.overrides] + [f"sim.nthread={threads}"]
         directory = stages.stage_dir(Path(cfg.sweep_root), stage.identity)
         with stages.held(directory):
@@ -184,6 +195,25 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     tmp.write_text(json.dumps(result, indent=2) + "\n")
     os.replace(tmp, done)
     return result
+
+
+def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> str:
+    """What makes a job's finished `result` stale against its experiment now, "" when nothing does: another stage
+    identity (a budget, reward or tracker value changed), or other evaluations or curve than the experiment asks for.
+    """
+    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    wanted = {stage.name: stage.identity for stage in planned}
+    if made != wanted:
+        return "its stages changed (" + ", ".join(
+            f"{name}: {made.get(name)} -> {wanted.get(name)}" for name in sorted({*made, *wanted})
+            if made.get(name) != wanted.get(name)
+        ) + ")"  # fmt: skip
+    evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
+    if sorted(result.get("evals", {})) != evals:
+        return f"its evaluations changed ({', '.join(sorted(result.get('evals', {})))} -> {', '.join(evals)})"
+    if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
+        return "its learning curve was added or dropped"
+    return ""
 
 
 def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:

@@ -75,6 +75,21 @@ def stage_dir(sweep_root: Path, key: str) -> Path:
     return Path(sweep_root) / STORE / key
 
 
+def store_parts(run_dir: Path) -> tuple[str, ...] | None:
+    """A stage run's path from the store's folder on, `("stages", identity, level, subject, run)`; None for a run
+    outside a store."""
+    parts = Path(run_dir).parts
+    if STORE not in parts[:-1]:
+        return None
+    return parts[len(parts) - 1 - parts[::-1].index(STORE) :]
+
+
+def identity_of(run_dir: Path) -> str | None:
+    """The identity of the stage whose run `run_dir` is (the store dir it lies in); None outside a store."""
+    parts = store_parts(run_dir)
+    return parts[1] if parts else None
+
+
 def status(directory: Path, iterations: int) -> str:
     """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
     for run_dir in find_runs(Path(directory)):

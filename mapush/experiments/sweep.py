@@ -24,12 +24,22 @@ from mapush.config import CONF_DIR, compose_config, group_options, to_plain
 from mapush.errors import BadInput
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
-from mapush.experiments.pipeline import RESULT, budget_of, planned_stages, run_job, stage_plan
+from mapush.experiments.pipeline import RESULT, budget_of, planned_stages, result_changes, run_job, stage_plan
 from mapush.experiments.stages import STAGE_REF
 from mapush.levels import env_class
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
-SWEEP_KEYS = (*SWEEP_GROUPS, "seed", "agents", "budget", "overrides", "sweep_root", "sweep_name", "job_threads")
+SWEEP_KEYS = (
+    *SWEEP_GROUPS,
+    "seed",
+    "agents",
+    "budget",
+    "overrides",
+    "sweep_root",
+    "sweep_name",
+    "job_threads",
+    "rerun_changed",
+)
 """Keys of conf/sweep.yaml; any other override (e.g. `debug=smoke`, `algo.entropy_coef=0.01`) goes to every stage."""
 FAILED = "failed.txt"
 OPTIONAL_LAUNCHERS = {"ray": ("hydra_plugins.hydra_ray_launcher", "hydra-ray-launcher: pip install -e .[ray]")}
@@ -169,29 +179,47 @@ def _check_jobs(overrides: list[str]) -> None:
 def dry_run(overrides: list[str]) -> list[dict]:
     """What `run_sweep(overrides)` would train and reuse, job by job, training nothing; printed and returned.
 
-    Each row: job, stage, identity, what happens (`train`, `resume from N/M`, `reuse` a finished stage, or `share`
+    Finished jobs are left out (those whose experiment changed since are listed; see `rerun_changed`). Each row of
+    the others: job, stage, identity, what happens (`train`, `resume from N/M`, `reuse` a finished stage, or `share`
     a stage an earlier job of this sweep trains) and the stage's env-steps.
     """
     full = sweep_overrides(overrides)
     combos = job_combos(full)
     hydra_cfg = compose_config(combos[0], config_name="sweep", hydra=True).hydra
     unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
-    rows, seen = [], set()
+    rows, seen, changed, finished = [], set(), [], 0
     for combo in combos:
         cfg = compose_config(combo, config_name="sweep")
-        job = ",".join(o for o in combo if o.partition("=")[0] not in unnamed)
-        for stage in planned_stages(cfg):
+        job = ",".join(sorted(o for o in combo if o.partition("=")[0] not in unnamed))  # Hydra's override_dirname
+        planned = planned_stages(cfg)
+        result = Path(hydra_cfg.sweep.dir) / job / RESULT
+        if result.is_file():
+            why = result_changes(json.loads(result.read_text()), cfg, planned)
+            finished += 1
+            if not why:
+                continue  # finished as planned now: nothing to train or evaluate
+            changed.append(f"{job}: {why}")
+            if not cfg.rerun_changed:
+                continue
+        for stage in planned:
             state = stages.status(stages.stage_dir(Path(cfg.sweep_root), stage.identity), stage.iterations)
             action = "share" if stage.identity in seen else {"finished": "reuse", "new": "train"}.get(state, state)
             seen.add(stage.identity)
             rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action,
                          "env_steps": stage.env_steps})  # fmt: skip
     to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith("resume")]
-    print(f"sweep {hydra_cfg.sweep.dir}: {len(rows)} stages in {len(combos)} jobs; "
+    print(f"sweep {hydra_cfg.sweep.dir}: {len(combos)} jobs, {finished} finished; {len(rows)} stages to run; "
           f"{len(to_train)} to train ({sum(r['env_steps'] for r in to_train) / 1e6:.1f}M env-steps), "
           f"{sum(r['action'] == 'reuse' for r in rows)} finished to reuse, "
           f"{sum(r['action'] == 'share' for r in rows)} shared between jobs")  # fmt: skip
-    width = max(len(r["job"]) for r in rows)
+    if changed:
+        print(
+            f"{len(changed)} finished jobs were made by other stages or evaluations than planned now; "
+            + ("they run again:" if cfg.rerun_changed else "kept as they are (rerun_changed=true runs them again):")
+        )
+        for line in changed:
+            print(f"  {line}")
+    width = max((len(r["job"]) for r in rows), default=0)
     for r in rows:
         print(f"  {r['job']:{width}s}  {r['stage']:5s} {r['identity']}  {r['action']:18s} "
               f"{r['env_steps'] / 1e6:8.2f}M env-steps")  # fmt: skip

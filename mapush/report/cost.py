@@ -20,6 +20,7 @@ from pathlib import Path
 
 from mapush.config import load_run_config
 from mapush.errors import BadInput
+from mapush.experiments import stages
 from mapush.logging.mcap_files import training_scalars
 from mapush.rl.runner import POLICY_FILE
 
@@ -44,9 +45,9 @@ def stage_paths(result: dict) -> list[Path]:
     (`runs/sweeps/stages/...`) that is not there from here is looked up under the job's own sweep root."""
     paths = []
     for text in result.get("stages", {}).values():
-        path = Path(text)
-        if not path.is_dir() and not path.is_absolute() and "stages" in path.parts and "job_dir" in result:
-            path = Path(result["job_dir"]).parents[1].joinpath(*path.parts[path.parts.index("stages") :])
+        path, in_store = Path(text), stages.store_parts(Path(text))
+        if not path.is_dir() and not path.is_absolute() and in_store and "job_dir" in result:
+            path = Path(result["job_dir"]).parents[1].joinpath(*in_store)
         paths.append(path)
     return paths
 
