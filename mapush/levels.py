@@ -24,8 +24,10 @@ from mapush.logging.go1_scene import Go1Layout
 from mapush.logging.scene import SceneLayout
 from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
+from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
+from mapush.rundir import resolve_checkpoint
 from mapush.schema import check_config
 
 
@@ -84,7 +86,22 @@ def checked(cfg: DictConfig) -> dict:
         if cfg.mid:
             cfg.mid = plain["mid"] = str(Path(cfg.mid).resolve())
         load_mid_policy(plain["mid"], plain["task"])
+    if plain["train"]["init_from"]:
+        cfg.train.init_from = plain["train"]["init_from"] = str(_init_weights(plain))
     return plain
+
+
+def _init_weights(cfg: dict) -> Path:
+    """The checkpoint `train.init_from` names, absolute, checked to fit the config's observations (BadInput)."""
+    _, checkpoint = resolve_checkpoint(Path(cfg["train"]["init_from"]))
+    trained, _ = actor_shape(read_checkpoint(checkpoint))
+    width = make_env({**cfg, "num_envs": 1}).observations()["policy"].shape[-1]
+    if trained != width:
+        raise BadInput(
+            f"train.init_from {str(checkpoint)!r} expects a {trained}-d observation but the config gives {width}-d; "
+            "valid: a run of the same level, task and agent count"
+        )
+    return checkpoint.resolve()
 
 
 def make_env(cfg: dict, evaluation: bool = False):

@@ -67,6 +67,8 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     if checkpoint is not None:
         done = load_checkpoint(runner, checkpoint, obs_width(runner), "the run's config") + 1
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
+    elif cfg["train"]["init_from"]:  # a new run that starts from another run's networks
+        load_checkpoint(runner, Path(cfg["train"]["init_from"]), obs_width(runner), "the config", weights=True)
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
     if interval > 0:

@@ -111,6 +111,36 @@ def test_the_locomotion_env_steps_with_the_documented_shapes_and_randomizes_each
     assert terminated[0] and info["episode_end"]["exception"][0] and reward[0, 0] < 0
 
 
+def test_a_held_force_leans_on_the_trunk_for_its_duration_and_moves_it_that_way(cfg_for):
+    import torch
+
+    from mapush.envs.low import LocomotionEnv
+
+    cfg = cfg_for("level=low", "level.randomize.push_velocity=0.0")  # no velocity pushes: only the force acts
+    cfg["level"]["randomize"].update(force_n=80.0, force_interval_s=0.4, force_duration_s=0.2)  # at step 20, for 10
+    leaned = LocomotionEnv(cfg, num_envs=4)
+    cfg["level"]["randomize"]["force_n"] = 0.0
+    upright = LocomotionEnv(cfg, num_envs=4)  # the same seed: the same starts, frictions and masses
+    still = torch.zeros(4, 1, 12)  # the default pose under PD
+    held = []
+    for step in range(1, 31):
+        leaned.step(still)
+        upright.step(still)
+        force = leaned.applied[:, leaned.trunk].copy()
+        held.append(np.linalg.norm(force[:, :2], axis=1))
+        assert (force[:, 2:] == 0).all()  # horizontal, no torque
+        assert (upright.applied == 0).all()  # force_n 0: nothing applied
+        if step == 20:
+            direction = force[:, :2] / held[-1][:, None]
+    held = np.array(held)  # (30 steps, 4 envs): drawn after episode step 20, cleared 10 steps later
+    assert (held[:19] == 0).all() and (held[29] == 0).all()
+    assert (held[19:29] == held[19]).all() and (held[19] > 0).all() and (held[19] <= 80.0).all()  # one size, held
+    # until the force, both batches moved alike; then each leaned trunk went along its force (MuJoCo's dynamics)
+    apart = leaned.sim.qpos[:, :2] - upright.sim.qpos[:, :2]
+    assert ((apart * direction).sum(1) > 0).all()
+    assert np.abs((apart * direction[:, ::-1] * [1, -1]).sum(1)).max() < np.abs((apart * direction).sum(1)).max()
+
+
 @pytest.fixture(scope="module")
 def low_run(tmp_path_factory) -> Path:
     """A 2-iteration `mapush train level=low debug=smoke` run dir, made once through the CLI. Read-only."""
@@ -272,3 +302,31 @@ def test_the_shipped_policy_walks_forward_at_half_a_metre_per_second_within_the_
             if step * env.dt >= 1.0:  # after a second to get going
                 errors.append(env.velocity_error())
     assert torch.stack(errors).mean() <= 0.1
+
+
+@pytest.mark.slow
+def test_a_run_started_from_another_runs_networks_fine_tunes_them(cli, low_run, smoke_run, tmp_path):
+    import torch
+
+    from mapush.config import load_run_config
+    from mapush.rl.policy import read_checkpoint
+
+    init = sorted(low_run.glob("model_*.pt"))[-1]
+    # a learning rate too small to move the weights: the new run's first checkpoint holds the networks it started from
+    proc = cli("train", "level=low", "debug=smoke", "train.iterations=1", "algo.algorithm.learning_rate=1e-12",
+               f"train.init_from={low_run}", f"train.run_root={tmp_path}")  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    run = Path(proc.stdout.strip().splitlines()[-1])
+    assert load_run_config(run).train.init_from == str(init.resolve())  # the exact checkpoint, recorded
+    started, trained = read_checkpoint(init), read_checkpoint(run / "model_0.pt")
+    assert trained["iter"] == 0  # its own iteration count, from 0
+    for part in ("actor_state_dict", "critic_state_dict"):
+        weights = [k for k in started[part] if k.startswith("mlp.")]
+        assert weights and all(torch.allclose(started[part][k], trained[part][k], atol=1e-6) for k in weights)
+    # bad input: one line, exit 2, no run dir
+    mid_run = (smoke_run, "expects a 10-d observation but the config gives 45-d")  # the mid level's local observation
+    mid_run = (smoke_run, "expects a 10-d observation but the config gives 45-d")  # the mid level's local observation
+    for bad, named in ((tmp_path / "nope", "does not exist"), mid_run):
+        proc = cli("train", "level=low", "debug=smoke", f"train.init_from={bad}", f"train.run_root={tmp_path}/bad")
+        assert proc.returncode == 2 and named in proc.stderr.strip().splitlines()[-1], proc.stderr
+        assert not (tmp_path / "bad").exists()

@@ -49,6 +49,13 @@ def test_a_changed_reward_weight_tracker_value_or_budget_is_another_stage():
     assert high_only["mid"] == base["mid"] and high_only["high"] != base["high"]
 
 
+def test_the_identities_of_stages_already_trained_stay_as_they_were():
+    # the main table's Ours cylinder cells (seed 0) were trained as these two stages (runs/sweeps/stages/<identity>);
+    # a key added to the configs since (at its neutral default) must not make them other stages, nor retrain them
+    assert _identities("task=cylinder") == {"mid": "08d031c001efeccb", "high": "9cd55514adc710d3"}
+    assert _identities("task=cylinder", "overrides=['train.init_from=runs/x']")["mid"] != "08d031c001efeccb"
+
+
 def test_a_sweep_stage_writes_a_checkpoint_by_every_mark_of_its_learning_curve():
     cfg = compose_config(["experiment=main", "method=ours", "task=cuboid"], config_name="sweep")
     mid, high = planned_stages(cfg)

@@ -12,8 +12,9 @@ Commands are drawn per env from `level.commands` at reset and every `resample_s`
 "stand still". Evaluation draws them from `level.eval_commands`, the range the mid level commands, and pushes with
 `level.eval_push_velocity` (0 by default: the tracking target is on flat ground, undisturbed).
 
-Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, and a random push (a
-change of the trunk's horizontal velocity) every `push_interval_s`. A fall (trunk too low, tilted too far, or
+Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, a random push (a
+change of the trunk's horizontal velocity) every `push_interval_s`, and optionally a held horizontal force on the
+trunk (`force_n`: the load of pushing an object or being leaned on). A fall (trunk too low, tilted too far, or
 touching the ground) ends the episode as an exception; reaching the timeout is a success.
 """
 
@@ -69,12 +70,16 @@ class LocomotionEnv(EnvCore):
         super().__init__(cfg, sim, E, num_agents=1, rows=1, dt=sim.dt)
         self.command_ranges = level["eval_commands" if evaluation else "commands"]
         self.push_velocity = level["eval_push_velocity"] if evaluation else level["randomize"]["push_velocity"]
+        self.force_n = level["eval_force_n"] if evaluation else level["randomize"]["force_n"]
         self.num_actions = 12
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
         self.action_limit = float(self.robot["action_clip"])
         b = sim.batch
         self.geom_xpos, self.actuator_force = b.bind("geom_xpos"), b.bind("actuator_force")
         self.body_xquat = b.bind("xquat")
+        self.applied = b.bind("xfrc_applied")  # (E, nbody, 6) force and torque on each body, world frame
+        self.trunk = self.model.body(go1.ROOT_BODY).id
+        self.force_steps_left = np.zeros(E, dtype=np.int64)
         self.feet = np.array([self.model.geom(name).id for name in go1.FOOT_NAMES])
         self.trunk_geom = self.model.geom("trunk_box").id
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
@@ -123,6 +128,8 @@ class LocomotionEnv(EnvCore):
         sim.qpos[ids] = qpos
         sim.qvel[ids] = 0.0
         sim.ctrl[ids] = self.default_pose
+        self.applied[ids, self.trunk] = 0.0
+        self.force_steps_left[ids] = 0
         sim.forward(ids)
         self.commands[t] = self._sample_commands(n)
         self.actions[t] = 0.0
@@ -170,6 +177,7 @@ class LocomotionEnv(EnvCore):
         failed = self.sim.advance()
         self.episode_step += 1
         self._push()
+        self._lean()
         self._read_state()
         self._update_air_time()
         self.diverged = torch.zeros(self.num_envs, dtype=torch.bool)
@@ -220,6 +228,24 @@ class LocomotionEnv(EnvCore):
         if self.push_velocity > 0 and due.any():
             ids = np.flatnonzero(due)
             self.sim.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * self.push_velocity
+
+    def _lean(self) -> None:
+        """Every `force_interval_s`, a horizontal force on each trunk of size U(0, `force_n`) N in a random
+        direction, held `force_duration_s`: the sustained load of pushing an object or being leaned on, which the
+        velocity pushes (`_push`) do not give."""
+        if self.force_n <= 0:
+            return
+        rand = self.cfg["level"]["randomize"]
+        self.force_steps_left -= 1
+        self.applied[self.force_steps_left == 0, self.trunk, :2] = 0.0
+        due = ((self.episode_step % max(1, round(rand["force_interval_s"] / self.dt))) == 0).numpy()
+        if due.any():
+            ids = np.flatnonzero(due)
+            size = self.rng.uniform(0.0, self.force_n, size=len(ids))
+            heading = self.rng.uniform(-math.pi, math.pi, size=len(ids))
+            self.applied[ids, self.trunk, 0] = size * np.cos(heading)
+            self.applied[ids, self.trunk, 1] = size * np.sin(heading)
+            self.force_steps_left[ids] = max(1, round(rand["force_duration_s"] / self.dt))
 
     def _before_reset(self, done: torch.Tensor) -> None:
         """New commands every `resample_s`, after the step's were recorded."""

@@ -3,7 +3,8 @@ shares one store of finished stages.
 
 The identity of a stage is a hash of its composed, resolved config (budget included, as `train.iterations`),
 less what says where it is written, how it is logged or evaluated, how many threads ran it, and how often it
-writes checkpoints and how many it keeps (`IGNORED`; sweeps keep them all, for the learning curves); a frozen
+writes checkpoints and how many it keeps (`IGNORED`; sweeps keep them all, for the learning curves), and less the
+keys added since at their neutral default (`UNSET_LATER_KEYS`); a frozen
 stage it builds on (`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or of
 two experiments, whose stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to the
 config (a reward weight, the tracker's calibration, the budget) is another identity, so another run.
@@ -40,6 +41,9 @@ IGNORED = (
     "bench",
 )
 """Config keys that change where and how a stage runs, not what it learns."""
+UNSET_LATER_KEYS = {"train.init_from": None}
+"""Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
+stays out of the identity, so the stages trained before it existed keep theirs; set, it makes another stage."""
 STAGE_REF = "@"
 """An override value `@STAGE` (e.g. `mid=@mid`) stands for that earlier stage's run dir."""
 IDENTITY_FILE = "stage.yaml"
@@ -62,6 +66,11 @@ def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str
         parent, _, leaf = key.rpartition(".")
         node = OmegaConf.select(view, parent) if parent else view
         if node is not None and leaf in node:
+            node.pop(leaf)
+    for key, default in UNSET_LATER_KEYS.items():
+        parent, _, leaf = key.rpartition(".")
+        node = OmegaConf.select(view, parent) if parent else view
+        if node is not None and leaf in node and node[leaf] == default:
             node.pop(leaf)
     for override in filter(_is_ref, overrides):
         key, _, value = override.partition("=")

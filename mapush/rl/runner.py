@@ -98,10 +98,12 @@ def obs_width(runner: OnPolicyRunner) -> int:
     return int(runner.env.get_observations()["policy"].shape[-1])
 
 
-def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str) -> int:
+def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str, weights: bool = False) -> int:
     """Load `path` into `runner` after checking it fits; returns the checkpoint's iteration.
 
-    Raises BadInput for a missing file or a checkpoint made for another observation width (agent count).
+    `weights`: only the networks (actor, and critic where saved), to start a new run from them (`train.init_from`);
+    the optimizer and the iteration count start fresh. Raises BadInput for a missing file or a checkpoint made for
+    another observation width (agent count).
     """
     if not Path(path).is_file():
         raise BadInput(f"checkpoint {str(path)!r} does not exist; valid: a model_<iteration>.pt of a run dir")
@@ -115,8 +117,8 @@ def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str)
             f"{obs_dim}-d; valid: the task and agent count it was trained with{hint}"
         )
     # A shipped policy's checkpoint keeps the actor alone (`mapush ship`): load what is there.
-    parts = {"actor": True, "iteration": True, "rnd": "rnd_state_dict" in data}
-    parts |= {"critic": "critic_state_dict" in data, "optimizer": "optimizer_state_dict" in data}
+    parts = {"actor": True, "iteration": not weights, "rnd": "rnd_state_dict" in data and not weights}
+    parts |= {"critic": "critic_state_dict" in data, "optimizer": "optimizer_state_dict" in data and not weights}
     if runner.alg.load(data, parts, True):  # the dict read weights-only above; rsl-rl's runner.load unpickles
         runner.current_learning_iteration = int(data["iter"])
     return int(data["iter"])
