@@ -100,3 +100,16 @@ def test_stage_runs_are_found_under_the_sweep_root_or_counted_as_unreadable(two_
         1, 1, 1, 1)  # fmt: skip
     assert (cost["training_core_h"], cost["evaluation_core_h"]) == (1.5, 0.01)
     assert "1 stage runs not found or unreadable, left out" in cost_line(cost)
+
+
+def test_a_job_that_ran_again_counts_the_evaluations_of_its_earlier_result_too(two_jobs, tmp_path):
+    import json
+
+    job = tmp_path / "job"
+    job.mkdir()
+    (job / "result.superseded.json").write_text(json.dumps({**two_jobs[1], "eval_wall_s": 300.0}))
+    again = {**two_jobs[1], "eval_wall_s": 120.0, "supersedes": "result.superseded.json", "job_dir": str(job)}
+    cost = measured_cost([again], cores=2)
+    # the same two stages; evaluation (300 + 120 s) x 2 threads = 0.23 core-h over the job and its earlier result
+    assert (cost["stages"], cost["jobs"], cost["evaluation_core_h"]) == (2, 2, 0.23)
+    assert measured_cost([{k: v for k, v in again.items() if k != "supersedes"}], cores=2)["evaluation_core_h"] == 0.07

@@ -173,3 +173,17 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert identity_of(Path(again["stages"]["mid"])) == planned_stages(again_cfg)[0].identity
     assert identity_of(Path(again["stages"]["mid"])) != identity_of(Path(first["stages"]["mid"]))
     assert result_changes(again, again_cfg, planned_stages(again_cfg)) == ""
+    # an evaluation that changed is made again; what still holds (the other evaluation, the curve) is kept
+    shorter = compose_config([*longer, "rerun_changed=true", "experiment.evals.t40=['level.episode_length_s=30']"],
+                             config_name="sweep")  # fmt: skip
+    assert result_changes(again, shorter, planned_stages(shorter)) == (
+        "evaluation 't40' changed (level.episode_length_s=40 -> level.episode_length_s=30)"
+    )
+    checkpoints = sorted(Path(again["stages"]["mid"]).glob("model_*.pt"))
+    third = run_job(shorter, job, 1)
+    assert third["evals"]["t20"] == again["evals"]["t20"] and third["curve"] == again["curve"]
+    assert third["evals"]["t40"]["timeout_s"] == 30.0 and third["evals"]["t40"]["overrides"] == [
+        "level.episode_length_s=30"
+    ]
+    assert sorted(Path(third["stages"]["mid"]).glob("model_*.pt")) == checkpoints  # nothing trained
+    assert third["supersedes"] == SUPERSEDED and json.loads((job / SUPERSEDED).read_text()) == again

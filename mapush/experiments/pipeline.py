@@ -143,6 +143,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     job_dir = Path(job_dir)
     done = job_dir / RESULT
     planned = planned_stages(cfg)
+    earlier = None  # a result the experiment has changed under: what of it still holds is kept
     if done.is_file():
         result = json.loads(done.read_text())
         changed = result_changes(result, cfg, planned)
@@ -151,8 +152,13 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         if not cfg.rerun_changed:
             print(f"mapush: {job_dir.name}: {changed} since its {RESULT}; kept (rerun_changed=true runs it again)")
             return result
-        print(f"mapush: {job_dir.name}: {changed} since its {RESULT}; running it again ({SUPERSEDED} keeps the old)")
+        print(f"mapush: {job_dir.name}: {changed} since its {RESULT}; running again what changed ({SUPERSEDED} "
+              "keeps the old)")  # fmt: skip
         os.replace(done, job_dir / SUPERSEDED)
+        earlier = result
+    if earlier is None and (job_dir / SUPERSEDED).is_file():  # cut while running again
+        earlier = json.loads((job_dir / SUPERSEDED).read_text())
+    kept, kept_curve = still_valid(earlier, cfg, planned) if earlier else ({}, None)
     torch.set_num_threads(threads)
     budget = budget_of(cfg)
     runs: dict[str, Path] = {}
@@ -167,11 +173,15 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     for name, spec in cfg.experiment.evals.items():
         if not applies(spec, cfg.method.name):
             continue  # an evaluation for other methods only
+        if name in kept:
+            evals[name] = kept[name]
+            continue
         target = runs[eval_stage(cfg, spec)]
         overrides = eval_overrides(spec)
         path = evaluate(target, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
+        evals[name]["overrides"] = list(overrides)
     result = {
         "experiment": cfg.experiment.name,
         "table": cfg.experiment.table,
@@ -185,16 +195,38 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         "seed": int(cfg.seed),
         "stages": {name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
         "evals": evals,
-        "curve": _curve(cfg, evaluated),
-        "eval_wall_s": round(time.perf_counter() - started, 1),
+        "curve": kept_curve or _curve(cfg, evaluated),
+        "eval_wall_s": round(time.perf_counter() - started, 1),  # this run's; `supersedes` names the earlier's
         "threads": threads,
         "machine_cores": os.cpu_count(),
         "finished": datetime.datetime.now().isoformat(timespec="seconds"),
     }
+    if earlier is not None:
+        result["supersedes"] = SUPERSEDED  # the result it replaces, whose evaluations it keeps where they hold
     tmp = done.with_suffix(".tmp")
     tmp.write_text(json.dumps(result, indent=2) + "\n")
     os.replace(tmp, done)
     return result
+
+
+def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
+    """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
+    a stage with the same identity, with the same overrides. An evaluation that recorded no overrides (made before
+    they were recorded) is made again."""
+    wanted = {stage.name: stage.identity for stage in planned}
+    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    same = {name for name in wanted if made.get(name) == wanted[name]}
+    kept = {}
+    for name, spec in cfg.experiment.evals.items():
+        record = result.get("evals", {}).get(name)
+        holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
+        if holds and record.get("overrides") == eval_overrides(spec):
+            kept[name] = record
+    curve, spec = result.get("curve"), budget_of(cfg).get("curve")
+    holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
+    if not holds or curve.get("every_env_steps") != spec.every_env_steps:
+        return kept, None
+    return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
 
 
 def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> str:
@@ -211,6 +243,10 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -
     evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
     if sorted(result.get("evals", {})) != evals:
         return f"its evaluations changed ({', '.join(sorted(result.get('evals', {})))} -> {', '.join(evals)})"
+    for name in evals:  # results made before evaluations recorded their overrides are taken as they are
+        recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
+        if recorded is not None and recorded != now:
+            return f"evaluation {name!r} changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})"
     if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
         return "its learning curve was added or dropped"
     return ""

@@ -8,12 +8,14 @@ uninterrupted run costs, without the iterations a cut run repeats after resuming
 MuJoCo threads. Evaluation time is what a job spent after training (its evaluations and learning curve,
 `eval_wall_s` in `result.json`) times the job's threads. Jobs that finished before the pipeline recorded it get it
 from file times (the evaluated stage's exported policy to the job's `finished`), but only the first job to
-evaluate a stage: a later one that reused it left no trace of its own time.
+evaluate a stage: a later one that reused it left no trace of its own time. A job that ran again after its
+experiment changed (`rerun_changed`) counts its earlier result too (`result.superseded.json`): that time was spent.
 """
 
 from __future__ import annotations
 
 import datetime
+import json
 import os
 from collections import Counter
 from pathlib import Path
@@ -57,6 +59,7 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     hours of a `cores`-core machine (default: the one the jobs record, else this one) with every core busy.
     Stages or jobs whose runs cannot be read are left out and counted."""
     results = [r for r in results if r.get("stages")]  # hand-made results may name none
+    results += [earlier for r in results if (earlier := _superseded(r))]  # what a job spent before it ran again
     stages = {path.resolve() for r in results for path in stage_paths(r)}
     training, unreadable = 0.0, 0
     for path in stages:
@@ -95,6 +98,16 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
         "cores": cores,
         "machine_h": round((training + evaluation) / 3600 / cores, 2),
     }
+
+
+def _superseded(result: dict) -> dict | None:
+    """The earlier result a job replaced when it ran again (`supersedes`), with its job dir; None without one."""
+    if not result.get("supersedes") or "job_dir" not in result:
+        return None
+    path = Path(result["job_dir"]) / result["supersedes"]
+    if not path.is_file():
+        return None
+    return {**json.loads(path.read_text()), "job_dir": result["job_dir"]}
 
 
 def _first_to_evaluate(results: list[dict]) -> dict[Path, dict]:
