@@ -139,6 +139,12 @@ def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli
     assert "kept as they are (rerun_changed=true runs them again)" in plan.stdout
     plan = cli(*args, "rerun_changed=true")
     assert "they run again" in plan.stdout and "2 stages to run; 2 to train" in plan.stdout
+    # the planned stage was adopted from that one (tools/rekey_stages.py: the same run, a config of another form)
+    record = root / "stages" / now["high"] / "stage.yaml"
+    record.parent.mkdir(parents=True)
+    record.write_text(f"identity: {now['high']}\nadopted_from: {{identity: 00000000feedbeef}}\n")
+    assert "were made by" not in cli(*args).stdout
+    record.unlink()
 
     # an evaluation the experiment now asks for and the result lacks
     stale = _fake_result(cfg, now)

@@ -213,9 +213,7 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
     """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
     a stage with the same identity, with the same overrides. An evaluation that recorded no overrides (made before
     they were recorded) is made again."""
-    wanted = {stage.name: stage.identity for stage in planned}
-    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
-    same = {name for name in wanted if made.get(name) == wanted[name]}
+    same = _same_stages(result, cfg, planned)
     kept = {}
     for name, spec in cfg.experiment.evals.items():
         record = result.get("evals", {}).get(name)
@@ -229,13 +227,21 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
     return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
 
 
+def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> set[str]:
+    """Names of the planned stages that `result` was made with: the same identity, or one the planned stage was
+    adopted from (`stages.stands_for`)."""
+    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    root = Path(cfg.sweep_root)
+    return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
+
+
 def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> str:
     """What makes a job's finished `result` stale against its experiment now, "" when nothing does: another stage
     identity (a budget, reward or tracker value changed), or other evaluations or curve than the experiment asks for.
     """
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
     wanted = {stage.name: stage.identity for stage in planned}
-    if made != wanted:
+    if set(made) != set(wanted) or _same_stages(result, cfg, planned) != set(wanted):
         return "its stages changed (" + ", ".join(
             f"{name}: {made.get(name)} -> {wanted.get(name)}" for name in sorted({*made, *wanted})
             if made.get(name) != wanted.get(name)

@@ -99,6 +99,17 @@ def identity_of(run_dir: Path) -> str | None:
     return parts[1] if parts else None
 
 
+def stands_for(sweep_root: Path, key: str) -> set[str]:
+    """The identities stage `key` stands for: its own, and those of the stages it was adopted from
+    (`tools/rekey_stages.py`: the same runs under a config that changed only its form)."""
+    found: set[str] = set()
+    while key and key not in found:
+        found.add(key)
+        record = stage_dir(sweep_root, key) / IDENTITY_FILE
+        key = OmegaConf.select(OmegaConf.load(record), "adopted_from.identity") if record.is_file() else None
+    return found
+
+
 def status(directory: Path, iterations: int) -> str:
     """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
     for run_dir in find_runs(Path(directory)):
