@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -193,3 +194,18 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     ]
     assert sorted(Path(third["stages"]["mid"]).glob("model_*.pt")) == checkpoints  # nothing trained
     assert third["supersedes"] == SUPERSEDED and json.loads((job / SUPERSEDED).read_text()) == again
+    # a legged evaluation names the locomotion policy that walked its robots; another one makes it stale
+    legged = compose_config(
+        [*longer, "rerun_changed=true", "experiment.evals.t40=['level.episode_length_s=30','lowlevel=go1']"],
+        config_name="sweep",
+    )
+    fourth = run_job(legged, job, 1)
+    walker = fourth["evals"]["t40"]["lowlevel_policy"]
+    shipped = Path(walker["file"])
+    assert shipped.name == "policy.pt" and walker["sha256"] == hashlib.sha256(shipped.read_bytes()).hexdigest()[:16]
+    assert "lowlevel_policy" not in fourth["evals"]["t20"]  # the tracker has no policy
+    assert result_changes(fourth, legged, planned_stages(legged)) == ""
+    fourth["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # as if the shipped policy had been replaced
+    assert result_changes(fourth, legged, planned_stages(legged)) == (
+        "evaluation 't40' walked its robots with another locomotion policy than now"
+    )

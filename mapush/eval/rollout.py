@@ -21,6 +21,7 @@ from mapush.envs.core import exception_names
 from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
+from mapush.lowlevel import BACKENDS
 from mapush.rewards.manager import RewardManager
 from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
@@ -181,6 +182,9 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
         "seeds": seeds,
         "per_seed": per_seed,
     }
+    walker = BACKENDS[cfg["lowlevel"]["name"]].policy_fingerprint(cfg["lowlevel"])
+    if walker and cfg["level"]["name"] != "low":  # the locomotion policy that walked the robots of a pushing level
+        result["lowlevel_policy"] = walker
     if "velocity_error" in per_seed[0]:  # the low level (architecture 6): tracking error and falls
         for key in ("velocity_error", "fall_rate"):
             result[key] = float(np.mean([r[key] for r in per_seed]))

@@ -28,6 +28,7 @@ from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
 from mapush.experiments.stages import STAGE_REF
+from mapush.lowlevel import BACKENDS
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import checkpoints, find_runs, is_complete
 
@@ -218,13 +219,26 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
     for name, spec in cfg.experiment.evals.items():
         record = result.get("evals", {}).get(name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
-        if holds and record.get("overrides") == eval_overrides(spec):
+        if holds and record.get("overrides") == eval_overrides(spec) and not _walker_changed(record, result, cfg):
             kept[name] = record
     curve, spec = result.get("curve"), budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
     if not holds or curve.get("every_env_steps") != spec.every_env_steps:
         return kept, None
     return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
+
+
+def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str | None = None) -> bool:
+    """Whether the locomotion policy an evaluation would walk its robots with now (`lowlevel.policy`, or the
+    shipped one) is another than the one its `record` names; a legged evaluation that named none counts as
+    changed."""
+    name = name or next(k for k, v in result["evals"].items() if v is record)
+    spec = cfg.experiment.evals[name]
+    run = result.get("stages", {}).get(eval_stage(cfg, spec))
+    if not run or not Path(run).is_dir():
+        return False  # a stage run not here (moved, or a hand-made result): nothing to compare with
+    lowlevel = to_plain(apply_overrides(load_run_config(run), eval_overrides(spec)))["lowlevel"]
+    return BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) != record.get("lowlevel_policy")
 
 
 def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> set[str]:
@@ -253,6 +267,10 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -
         recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
         if recorded is not None and recorded != now:
             return f"evaluation {name!r} changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})"
+        if _walker_changed(result["evals"][name], result, cfg, name):
+            if "lowlevel_policy" not in result["evals"][name]:
+                return f"evaluation {name!r} recorded no locomotion policy"
+            return f"evaluation {name!r} walked its robots with another locomotion policy than now"
     if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
         return "its learning curve was added or dropped"
     return ""

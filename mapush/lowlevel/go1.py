@@ -11,6 +11,7 @@ the one shipped in the package (`mapush/lowlevel/pretrained/go1/`, a slim run di
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import mujoco
@@ -100,6 +101,13 @@ class Go1:
     def check(cfg: dict) -> None:
         """BadInput unless the config's locomotion policy exists (checked before anything is built)."""
         locomotion_policy_file(cfg["policy"])
+
+    @staticmethod
+    def policy_fingerprint(cfg: dict) -> dict:
+        """Which locomotion policy walks the robots: its file and the first 16 hex digits of its SHA-256 (an
+        evaluation records it; a sweep re-evaluates when the shipped policy is replaced)."""
+        path = locomotion_policy_file(cfg["policy"])
+        return {"file": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()[:16]}
 
     def __init__(self, cfg: dict):
         self.cfg = cfg

@@ -27,6 +27,10 @@ class Tracker:
     def check(cfg: dict) -> None:
         """Nothing to check before building: the tracker needs no files."""
 
+    @staticmethod
+    def policy_fingerprint(cfg: dict) -> None:
+        """No policy walks the tracker's robots (`Go1.policy_fingerprint`)."""
+
     def __init__(self, cfg: dict):
         self.cfg = cfg
         length, width, _height = cfg["size"]
