@@ -182,8 +182,9 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
         "seeds": seeds,
         "per_seed": per_seed,
     }
-    walker = BACKENDS[cfg["lowlevel"]["name"]].policy_fingerprint(cfg["lowlevel"])
-    if walker and cfg["level"]["name"] != "low":  # the locomotion policy that walked the robots of a pushing level
+    lowlevel, level = cfg.get("lowlevel"), cfg.get("level", {}).get("name")
+    walker = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) if lowlevel else None
+    if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
     if "velocity_error" in per_seed[0]:  # the low level (architecture 6): tracking error and falls
         for key in ("velocity_error", "fall_rate"):
