@@ -67,4 +67,4 @@ def test_a_glob_over_a_key_that_is_not_a_group_is_refused(cli):
 def test_the_dry_run_expands_hydra_sweep_functions(cli):
     proc = cli("scale", "--agents", "1", "task=glob(cyl*)", "seed=range(0,2)", "--dry-run")
     assert proc.returncode == 0, proc.stderr
-    assert "4 stages in 2 jobs" in proc.stdout
+    assert "2 jobs, 0 finished; 4 stages to run" in proc.stdout
