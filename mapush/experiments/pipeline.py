@@ -212,15 +212,17 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
 
 def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
     """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
-    a stage with the same identity, with the same overrides. An evaluation that recorded no overrides (made before
-    they were recorded) is made again."""
+    a stage with the same identity (or one it was adopted from), with the same overrides and locomotion policy.
+    An evaluation that recorded no overrides (made before they were recorded) is taken as made with today's, as
+    `result_changes` takes it."""
     same = _same_stages(result, cfg, planned)
     kept = {}
     for name, spec in cfg.experiment.evals.items():
         record = result.get("evals", {}).get(name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
-        if holds and record.get("overrides") == eval_overrides(spec) and not _walker_changed(record, result, cfg):
-            kept[name] = record
+        holds = holds and record.get("overrides", eval_overrides(spec)) == eval_overrides(spec)
+        if holds and not _walker_changed(record, result, cfg):
+            kept[name] = {**record, "overrides": eval_overrides(spec)}
     curve, spec = result.get("curve"), budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
     if not holds or curve.get("every_env_steps") != spec.every_env_steps:
