@@ -57,6 +57,7 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
         "stages": 2,
         "unreadable_stages": 0,
         "jobs": 2,
+        "evaluated_again": 0,
         "jobs_without_evaluation_time": 0,
         "training_core_h": 3.5,
         "evaluation_core_h": 1.5,
@@ -111,5 +112,20 @@ def test_a_job_that_ran_again_counts_the_evaluations_of_its_earlier_result_too(t
     again = {**two_jobs[1], "eval_wall_s": 120.0, "supersedes": "result.superseded.json", "job_dir": str(job)}
     cost = measured_cost([again], cores=2)
     # the same two stages; evaluation (300 + 120 s) x 2 threads = 0.23 core-h over the job and its earlier result
-    assert (cost["stages"], cost["jobs"], cost["evaluation_core_h"]) == (2, 2, 0.23)
+    assert (cost["stages"], cost["jobs"], cost["evaluated_again"], cost["evaluation_core_h"]) == (2, 1, 1, 0.23)
+    assert "1 jobs evaluated again after their experiment changed: both counted" in cost_line(cost)
     assert measured_cost([{k: v for k, v in again.items() if k != "supersedes"}], cores=2)["evaluation_core_h"] == 0.07
+
+
+def test_a_stage_adopted_into_a_new_identity_is_trained_once(tmp_path):
+    # tools/rekey_stages.py copies a stage's run under a new identity; results naming either count its training once
+    store = tmp_path / "sweeps" / "stages"
+    old = _stage(store / "00000000000000aa" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
+    (old.parents[2] / "stage.yaml").write_text("identity: 00000000000000aa\n")
+    new = _stage(store / "00000000000000bb" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
+    (new.parents[2] / "stage.yaml").write_text(
+        "identity: 00000000000000bb\nadopted_from: {identity: 00000000000000aa}\n"
+    )
+    jobs = [{"stages": {"mid": str(run)}, "eval_wall_s": 0.0, "threads": 1} for run in (old, new)]
+    cost = measured_cost(jobs, cores=2)
+    assert (cost["stages"], cost["training_core_h"]) == (1, 1.0)

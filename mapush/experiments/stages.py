@@ -99,12 +99,12 @@ def identity_of(run_dir: Path) -> str | None:
     return parts[1] if parts else None
 
 
-def stands_for(sweep_root: Path, key: str) -> set[str]:
-    """The identities stage `key` stands for: its own, and those of the stages it was adopted from
-    (`tools/rekey_stages.py`: the same runs under a config that changed only its form)."""
-    found: set[str] = set()
+def stands_for(sweep_root: Path, key: str) -> list[str]:
+    """The identities stage `key` stands for: its own, then those of the stages it was adopted from, the one first
+    trained last (`tools/rekey_stages.py`: the same runs under a config that changed only its form)."""
+    found: list[str] = []
     while key and key not in found:
-        found.add(key)
+        found.append(key)
         record = stage_dir(sweep_root, key) / IDENTITY_FILE
         key = OmegaConf.select(OmegaConf.load(record), "adopted_from.identity") if record.is_file() else None
     return found

@@ -59,17 +59,20 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     hours of a `cores`-core machine (default: the one the jobs record, else this one) with every core busy.
     Stages or jobs whose runs cannot be read are left out and counted."""
     results = [r for r in results if r.get("stages")]  # hand-made results may name none
+    jobs_now = len(results)
     results += [earlier for r in results if (earlier := _superseded(r))]  # what a job spent before it ran again
-    stages = {path.resolve() for r in results for path in stage_paths(r)}
+    groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (tools/rekey_stages.py) train once
+    for path in {path.resolve() for r in results for path in stage_paths(r)}:
+        groups.setdefault(_original_stage(path), []).append(path)
     training, unreadable = 0.0, 0
-    for path in stages:
-        try:
-            training += stage_core_seconds(path)
+    for copies in groups.values():
+        try:  # a copy holds its original's iterations and, if it resumed, more: the largest is the stage's cost
+            training += max(stage_core_seconds(path) for path in copies)
         except (BadInput, OSError):  # missing, or a slim copy without its logs
             unreadable += 1
     evaluation, jobs, from_file_times, unknown = 0.0, 0, 0, 0
     first_to_evaluate = _first_to_evaluate(results)
-    for r in results:
+    for k, r in enumerate(results):
         evaluated = stage_paths(r)[-1]  # training stops at the evaluated stage
         try:
             if "eval_wall_s" in r:
@@ -82,15 +85,16 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
             else:
                 unknown += 1
                 continue
-            jobs += 1
+            jobs += k < jobs_now  # an earlier result of a job evaluated again adds its time, not a job
         except (BadInput, OSError, KeyError, ValueError):
-            unknown += 1
+            unknown += k < jobs_now
     recorded = Counter(int(r["machine_cores"]) for r in results if r.get("machine_cores"))
     cores = cores or (recorded.most_common(1)[0][0] if recorded else os.cpu_count() or 1)
     return {
-        "stages": len(stages) - unreadable,
+        "stages": len(groups) - unreadable,
         "unreadable_stages": unreadable,
         "jobs": jobs,
+        "evaluated_again": len(results) - jobs_now,
         "jobs_without_evaluation_time": unknown,
         "training_core_h": round(training / 3600, 2),
         "evaluation_core_h": round(evaluation / 3600, 2),
@@ -98,6 +102,16 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
         "cores": cores,
         "machine_h": round((training + evaluation) / 3600 / cores, 2),
     }
+
+
+def _original_stage(run_dir: Path) -> object:
+    """What a stage run was trained as: the identity at the end of its store dir's `adopted_from` chain (with the
+    store), or the run dir itself outside a store."""
+    parts = stages.store_parts(run_dir)
+    if not parts:
+        return run_dir
+    root = Path(*run_dir.parts[: len(run_dir.parts) - len(parts)])
+    return root, stages.stands_for(root, parts[1])[-1]
 
 
 def _superseded(result: dict) -> dict | None:
@@ -127,6 +141,8 @@ def cost_line(cost: dict) -> str:
         notes.append(f"{cost['evaluation_jobs_from_file_times']} of the jobs' evaluation times from file times")
     if cost["jobs_without_evaluation_time"]:
         notes.append(f"{cost['jobs_without_evaluation_time']} jobs without a recorded evaluation time left out")
+    if cost.get("evaluated_again"):
+        notes.append(f"{cost['evaluated_again']} jobs evaluated again after their experiment changed: both counted")
     if cost["unreadable_stages"]:
         notes.append(f"{cost['unreadable_stages']} stage runs not found or unreadable, left out")
     extra = f" ({'; '.join(notes)})" if notes else ""
