@@ -221,7 +221,7 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
         record = result.get("evals", {}).get(name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
         holds = holds and record.get("overrides", eval_overrides(spec)) == eval_overrides(spec)
-        if holds and not _walker_changed(record, result, cfg):
+        if holds and not _walker_changed(record, result, cfg, name):
             kept[name] = {**record, "overrides": eval_overrides(spec)}
     curve, spec = result.get("curve"), budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
@@ -230,11 +230,10 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
     return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
 
 
-def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str | None = None) -> bool:
-    """Whether the locomotion policy an evaluation would walk its robots with now (`lowlevel.policy`, or the
+def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str) -> bool:
+    """Whether the locomotion policy evaluation `name` would walk its robots with now (`lowlevel.policy`, or the
     shipped one) is another than the one its `record` names; a legged evaluation that named none counts as
     changed."""
-    name = name or next(k for k, v in result["evals"].items() if v is record)
     spec = cfg.experiment.evals[name]
     run = result.get("stages", {}).get(eval_stage(cfg, spec))
     if not run or not Path(run).is_dir():
