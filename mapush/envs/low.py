@@ -220,11 +220,14 @@ class LocomotionEnv(EnvCore):
         self.landed_air_time = self.air_time * self.first_contact
         self.air_time = self.air_time * ~self.state.foot_contact
 
+    def _every(self, seconds: float) -> torch.Tensor:
+        """(E,) envs whose episode is at a multiple of `seconds` (at least one step) this step."""
+        return self.episode_step % max(1, round(seconds / self.dt)) == 0
+
     def _push(self) -> None:
         """Every `push_interval_s`, a random change of each robot's horizontal velocity (m/s)."""
         rand = self.cfg["level"]["randomize"]
-        every = max(1, round(rand["push_interval_s"] / self.dt))
-        due = ((self.episode_step % every) == 0).numpy()
+        due = self._every(rand["push_interval_s"]).numpy()
         if self.push_velocity > 0 and due.any():
             ids = np.flatnonzero(due)
             self.sim.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * self.push_velocity
@@ -238,7 +241,7 @@ class LocomotionEnv(EnvCore):
         rand = self.cfg["level"]["randomize"]
         self.force_steps_left -= 1
         self.applied[self.force_steps_left == 0, self.trunk, :2] = 0.0
-        due = ((self.episode_step % max(1, round(rand["force_interval_s"] / self.dt))) == 0).numpy()
+        due = self._every(rand["force_interval_s"]).numpy()
         if due.any():
             ids = np.flatnonzero(due)
             size = self.rng.uniform(0.0, self.force_n, size=len(ids))
@@ -249,8 +252,7 @@ class LocomotionEnv(EnvCore):
 
     def _before_reset(self, done: torch.Tensor) -> None:
         """New commands every `resample_s`, after the step's were recorded."""
-        every = max(1, round(self.command_ranges["resample_s"] / self.dt))
-        due = (self.episode_step % every == 0) & (self.episode_step > 0)
+        due = self._every(self.command_ranges["resample_s"]) & (self.episode_step > 0)
         if due.any():
             self.commands[due] = self._sample_commands(int(due.sum()))
 

@@ -256,7 +256,7 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -
     """
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
     wanted = {stage.name: stage.identity for stage in planned}
-    if set(made) != set(wanted) or _same_stages(result, cfg, planned) != set(wanted):
+    if made.keys() != wanted.keys() or _same_stages(result, cfg, planned) != set(wanted):
         return "its stages changed (" + ", ".join(
             f"{name}: {made.get(name)} -> {wanted.get(name)}" for name in sorted({*made, *wanted})
             if made.get(name) != wanted.get(name)

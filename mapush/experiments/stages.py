@@ -62,15 +62,11 @@ def compose_stage(overrides: list[str], iterations_of) -> dict:
 def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str:
     """The stage's identity: a hash of `cfg` less `IGNORED`, with `key=@stage` set to that stage's identity."""
     view = OmegaConf.create(cfg)
-    for key in IGNORED:
+    dropped = [(key, None) for key in IGNORED] + [(key, (default,)) for key, default in UNSET_LATER_KEYS.items()]
+    for key, only_at in dropped:  # only_at: None drops the key whatever its value, else only at that one value
         parent, _, leaf = key.rpartition(".")
         node = OmegaConf.select(view, parent) if parent else view
-        if node is not None and leaf in node:
-            node.pop(leaf)
-    for key, default in UNSET_LATER_KEYS.items():
-        parent, _, leaf = key.rpartition(".")
-        node = OmegaConf.select(view, parent) if parent else view
-        if node is not None and leaf in node and node[leaf] == default:
+        if node is not None and leaf in node and (only_at is None or node[leaf] == only_at[0]):
             node.pop(leaf)
     for override in filter(_is_ref, overrides):
         key, _, value = override.partition("=")
