@@ -1,12 +1,18 @@
-"""Stand-in envs for the tests of pure term functions: only the attributes a term reads, state fields under
-`env.state` as the real envs keep them (`PushState`, `LocomotionState`)."""
+"""Stand-ins for tests: envs for the pure term functions (only the attributes a term reads, state fields under
+`env.state` as the real envs keep them: `PushState`, `LocomotionState`), and stage runs with hand-made iteration
+times for the cost and archive tests."""
 
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from types import SimpleNamespace
 
+from omegaconf import OmegaConf
+
+from mapush.config import compose_config
 from mapush.envs.low import LocomotionState
+from mapush.logging.metrics import McapLogWriter
 from mapush.sim.push import PushState
 
 STATE_FIELDS = {f.name for f in dataclasses.fields(PushState)} | {f.name for f in dataclasses.fields(LocomotionState)}
@@ -16,3 +22,20 @@ def stand_in_env(**attrs) -> SimpleNamespace:
     """An env whose state fields (e.g. `object_xy`, `lin_vel`) are under `.state` and the rest on the env itself."""
     state = {name: attrs.pop(name) for name in list(attrs) if name in STATE_FIELDS}
     return SimpleNamespace(state=SimpleNamespace(**state), **attrs)
+
+
+def stage_run(root: Path, name: str, threads: int, parts: list[dict[int, tuple[float, float]]]) -> Path:
+    """A run dir with one metrics file per part: {iteration: (collection s, learning s)}."""
+    run = root / name
+    run.mkdir(parents=True)
+    OmegaConf.save(compose_config([f"sim.nthread={threads}"]), run / "config.yaml")
+    for part in parts:
+        writer = McapLogWriter(str(run), progress=False)  # a second writer opens metrics.1.mcap, as a resume does
+        for it, (collection, learning) in part.items():
+            writer.add_scalar("Perf/collection_time", collection, it)
+            writer.add_scalar("Perf/learning_time", learning, it)
+            writer.add_scalar("Metrics/success_rate", 0.5, it)
+            writer.end_iteration(it)
+        writer.stop()
+    (run / "policy.pt").write_bytes(b"")
+    return run

@@ -5,39 +5,19 @@ from __future__ import annotations
 
 import datetime
 import os
-from pathlib import Path
 
 import pytest
-from omegaconf import OmegaConf
+from stand_ins import stage_run
 
-from mapush.config import compose_config
-from mapush.logging.metrics import McapLogWriter
 from mapush.report.cost import cost_line, measured_cost
 from mapush.report.formats import Table, markdown, sidecar
-
-
-def _stage(root: Path, name: str, threads: int, parts: list[dict[int, tuple[float, float]]]) -> Path:
-    """A run dir with one metrics file per part: {iteration: (collection s, learning s)}."""
-    run = root / name
-    run.mkdir(parents=True)
-    OmegaConf.save(compose_config([f"sim.nthread={threads}"]), run / "config.yaml")
-    for part in parts:
-        writer = McapLogWriter(str(run), progress=False)  # a second writer opens metrics.1.mcap, as a resume does
-        for it, (collection, learning) in part.items():
-            writer.add_scalar("Perf/collection_time", collection, it)
-            writer.add_scalar("Perf/learning_time", learning, it)
-            writer.add_scalar("Metrics/success_rate", 0.5, it)
-            writer.end_iteration(it)
-        writer.stop()
-    (run / "policy.pt").write_bytes(b"")
-    return run
 
 
 @pytest.fixture
 def two_jobs(tmp_path) -> list[dict]:
     # stage a, 1 thread: iteration 0 takes 1800 s; iteration 1 ran 1800 s, was cut, and ran again for 3600 s
-    a = _stage(tmp_path, "a", 1, [{0: (1200.0, 600.0), 1: (1200.0, 600.0)}, {1: (2400.0, 1200.0)}])
-    b = _stage(tmp_path, "b", 2, [{0: (2700.0, 900.0)}])  # 3600 s on 2 threads
+    a = stage_run(tmp_path, "a", 1, [{0: (1200.0, 600.0), 1: (1200.0, 600.0)}, {1: (2400.0, 1200.0)}])
+    b = stage_run(tmp_path, "b", 2, [{0: (2700.0, 900.0)}])  # 3600 s on 2 threads
     finished = datetime.datetime(2026, 1, 1, 12, 0, 0)
     stamp = finished.timestamp() - 1800.0  # the first job's evaluations: 1800 s after b's export
     os.utime(b / "policy.pt", (stamp, stamp))
@@ -56,6 +36,7 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
     assert cost == {
         "stages": 2,
         "unreadable_stages": 0,
+        "stages_from_records": 0,
         "jobs": 2,
         "evaluated_again": 0,
         "jobs_without_evaluation_time": 0,
@@ -120,9 +101,9 @@ def test_a_job_that_ran_again_counts_the_evaluations_of_its_earlier_result_too(t
 def test_a_stage_adopted_into_a_new_identity_is_trained_once(tmp_path):
     # tools/rekey_stages.py copies a stage's run under a new identity; results naming either count its training once
     store = tmp_path / "sweeps" / "stages"
-    old = _stage(store / "00000000000000aa" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
+    old = stage_run(store / "00000000000000aa" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
     (old.parents[2] / "stage.yaml").write_text("identity: 00000000000000aa\n")
-    new = _stage(store / "00000000000000bb" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
+    new = stage_run(store / "00000000000000bb" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
     (new.parents[2] / "stage.yaml").write_text(
         "identity: 00000000000000bb\nadopted_from: {identity: 00000000000000aa}\n"
     )

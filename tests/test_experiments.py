@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -37,6 +38,7 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
             result["method"], {"mid", "high"}
         )
         assert set(result["stages"]) == stages
+        assert set(result["stage_core_s"]) == stages and all(s > 0 for s in result["stage_core_s"].values())
         assert result["evals"]["main"]["episodes"] == 2
         # the path-only reference is evaluated for Ours alone
         assert set(result["evals"]) == ({"main", "path_only", "go1"} if result["method"] == "ours" else {"main"})
@@ -70,6 +72,17 @@ def test_a_2_job_sweep_runs_on_the_launcher_and_lists_its_results(cli, tmp_path,
         assert result["variant"] == "smoke_debug-smoke"
     if launcher == "submitit_local":
         assert list((tmp_path / "sweeps").glob("*/.submitit"))
+        return
+    # the archive rebuilds the table once the runs are gone
+    archived = cli("archive", "--runs", tmp_path / "sweeps", "--out", tmp_path / "jobs")
+    assert archived.returncode == 0 and "2 results written, 0 already archived" in archived.stdout
+    shutil.rmtree(tmp_path / "sweeps")
+    proc = cli("tables", "--runs", tmp_path / "jobs", "--out", tmp_path / "out", "--table", "ocb_ablation")
+    assert proc.returncode == 0, proc.stderr
+    side = json.loads((tmp_path / "out" / "ocb_ablation_smoke_debug-smoke.json").read_text())
+    filled = [c for c in side["cells"] if c["mean"] is not None]
+    assert filled and all(str(tmp_path / "jobs") in source for c in filled for source in c["sources"])
+    assert side["cost"]["stages_from_records"] == 2 and side["cost"]["unreadable_stages"] == 0
 
 
 @pytest.mark.slow

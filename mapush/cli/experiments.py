@@ -81,7 +81,9 @@ def reproduce(
     codes = [_sweep([f"experiment={name}", *overrides], dry_run, stop=False) for name in REPRODUCED]
     if dry_run:
         return
-    tables(runs=Path(keys.get("sweep_root", "runs")), out=out, only=[])
+    root = Path(keys.get("sweep_root", "runs"))
+    archive(runs=root, out=out / "jobs")  # the results, kept in git beside the tables
+    tables(runs=[root, out / "jobs"], out=out, only=[])
     if any(codes):
         raise typer.Exit(1)
 
@@ -103,24 +105,47 @@ def _sweep(overrides: list[str], dry_run: bool = False, stop: bool = True) -> in
 
 @app.command()
 def tables(
-    runs: Path = typer.Option(Path("runs"), "--runs", help="Where to look for sweep jobs (result.json files)."),
+    runs: list[Path] = typer.Option(
+        [],
+        "--runs",
+        help="Where to look for sweep jobs (result.json files); repeatable. Default: runs and the "
+        "archive results/jobs, where each exists.",
+    ),
     out: Path = typer.Option(Path("results"), "--out", help="Where to write the tables."),
     only: list[str] = typer.Option([], "--table", help="Write only these tables (main, ocb_ablation, scale)."),
 ) -> None:
     """Build the paper's tables (Markdown, LaTeX, CSV, a JSON sidecar per table), learning curves and the
-    scalability plot."""
+    scalability plot, from the jobs under `runs/` and those archived in `results/jobs/` (`mapush archive`)."""
+    from mapush.experiments.archive import ARCHIVE
     from mapush.report.tables import BUILDERS, write_tables
 
-    if not runs.is_dir():
-        raise BadInput(f"--runs {str(runs)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
+    for root in runs:
+        if not root.is_dir():
+            raise BadInput(f"--runs {str(root)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
     for name in only:
         if name not in BUILDERS:
             raise BadInput(f"--table {name!r} is not a table; valid: {', '.join(BUILDERS)}")
-    for table in write_tables(runs, out, only or list(BUILDERS)):
+    roots = runs or [root for root in (Path("runs"), ARCHIVE) if root.is_dir()]
+    for table in write_tables(roots, out, only or list(BUILDERS)):
         filled = sum(bool(c.values) for _, cells in table.rows for c in cells)
         total = sum(len(cells) for _, cells in table.rows)
         missing = f", missing cells listed in {table.name}.md" if table.missing else ""
         print(f"{out / table.name}.{{md,tex,csv,json}}: {filled}/{total} cells filled{missing}")
+
+
+@app.command()
+def archive(
+    runs: Path = typer.Option(Path("runs"), "--runs", help="The runs dir whose sweep jobs to archive."),
+    out: Path = typer.Option(Path("results/jobs"), "--out", help="The archive (commit it)."),
+) -> None:
+    """Copy every sweep job's result.json into a folder small enough to commit (results/jobs/), with each stage's
+    training time, so `mapush tables` still builds the tables when the runs are gone (a new machine)."""
+    from mapush.experiments.archive import archive_results
+
+    if not runs.is_dir():
+        raise BadInput(f"--runs {str(runs)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
+    written, unchanged = archive_results(runs, out)
+    print(f"{out}: {len(written)} results written, {unchanged} already archived")
 
 
 @app.command(context_settings=PASS_THROUGH)

@@ -9,6 +9,7 @@ policy), resumes a stage cut after a checkpoint, and restarts one cut before.
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import json
 import math
@@ -195,6 +196,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         "num_agents": int(load_run_config(evaluated).task.num_agents),
         "seed": int(cfg.seed),
         "stages": {name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
+        "stage_core_s": recorded_stage_seconds(runs),  # the training cost, kept when the runs are gone
         "evals": evals,
         "curve": kept_curve or _curve(cfg, evaluated),
         "eval_wall_s": round(time.perf_counter() - started, 1),  # this run's; `supersedes` names the earlier's
@@ -208,6 +210,16 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     tmp.write_text(json.dumps(result, indent=2) + "\n")
     os.replace(tmp, done)
     return result
+
+
+def recorded_stage_seconds(runs: dict[str, Path]) -> dict[str, float]:
+    """Each stage's training core-seconds as its run records them now (`stages.stage_core_seconds`); a stage whose
+    logs cannot be read is left out."""
+    seconds = {}
+    for name, path in runs.items():
+        with contextlib.suppress(BadInput, OSError):
+            seconds[name] = round(stages.stage_core_seconds(path), 1)
+    return seconds
 
 
 def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:

@@ -16,11 +16,13 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import os
 from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from mapush.config import compose_config, to_plain
+from mapush.config import compose_config, load_run_config, to_plain
+from mapush.logging.mcap_files import training_scalars
 from mapush.rl.runner import POLICY_FILE
 from mapush.rundir import checkpoint_iteration, checkpoints, find_runs
 
@@ -47,6 +49,8 @@ stays out of the identity, so the stages trained before it existed keep theirs; 
 STAGE_REF = "@"
 """An override value `@STAGE` (e.g. `mid=@mid`) stands for that earlier stage's run dir."""
 IDENTITY_FILE = "stage.yaml"
+ITERATION_TIMES = ("Perf/collection_time", "Perf/learning_time")
+"""The training scalars whose sum is one PPO iteration's wall time."""
 
 
 def compose_stage(overrides: list[str], iterations_of) -> dict:
@@ -137,3 +141,28 @@ def held(directory: Path):
 
 def _is_ref(override: str) -> bool:
     return override.partition("=")[2].startswith(STAGE_REF)
+
+
+def stage_core_seconds(run_dir: Path) -> float:
+    """Core-seconds of one stage's training: its iterations' wall time (`metrics.mcap`, each iteration once, as
+    rsl-rl measures it) times its MuJoCo threads."""
+    scalars = training_scalars(run_dir, prefix="Perf/")
+    seconds = sum(sum(scalars.get(tag, {}).values()) for tag in ITERATION_TIMES)
+    return seconds * run_threads(run_dir)
+
+
+def run_threads(run_dir: Path) -> int:
+    """The cores a run's physics used: `sim.nthread`, where 0 means every core of this machine."""
+    return int(load_run_config(run_dir).sim.nthread) or os.cpu_count() or 1
+
+
+def stage_paths(result: dict) -> list[Path]:
+    """The run dirs of a job's stages, in training order. A path stored relative to the directory the sweep ran in
+    (`runs/sweeps/stages/...`) that is not there from here is looked up under the job's own sweep root."""
+    paths = []
+    for text in result.get("stages", {}).values():
+        path, in_store = Path(text), store_parts(Path(text))
+        if not path.is_dir() and not path.is_absolute() and in_store and "job_dir" in result:
+            path = Path(result["job_dir"]).parents[1].joinpath(*in_store)
+        paths.append(path)
+    return paths

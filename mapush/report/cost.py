@@ -20,38 +20,10 @@ import os
 from collections import Counter
 from pathlib import Path
 
-from mapush.config import load_run_config
 from mapush.errors import BadInput
 from mapush.experiments import stages
-from mapush.logging.mcap_files import training_scalars
+from mapush.experiments.stages import run_threads, stage_core_seconds, stage_paths
 from mapush.rl.runner import POLICY_FILE
-
-ITERATION_TIMES = ("Perf/collection_time", "Perf/learning_time")
-"""The training scalars whose sum is one PPO iteration's wall time."""
-
-
-def stage_core_seconds(run_dir: Path) -> float:
-    """Core-seconds of one stage's training: its iterations' wall time times its MuJoCo threads."""
-    scalars = training_scalars(run_dir, prefix="Perf/")
-    seconds = sum(sum(scalars.get(tag, {}).values()) for tag in ITERATION_TIMES)
-    return seconds * _threads(run_dir)
-
-
-def _threads(run_dir: Path) -> int:
-    """The cores a run's physics used: `sim.nthread`, where 0 means every core of this machine."""
-    return int(load_run_config(run_dir).sim.nthread) or os.cpu_count() or 1
-
-
-def stage_paths(result: dict) -> list[Path]:
-    """The run dirs of a job's stages, in training order. A path stored relative to the directory the sweep ran in
-    (`runs/sweeps/stages/...`) that is not there from here is looked up under the job's own sweep root."""
-    paths = []
-    for text in result.get("stages", {}).values():
-        path, in_store = Path(text), stages.store_parts(Path(text))
-        if not path.is_dir() and not path.is_absolute() and in_store and "job_dir" in result:
-            path = Path(result["job_dir"]).parents[1].joinpath(*in_store)
-        paths.append(path)
-    return paths
 
 
 def measured_cost(results: list[dict], cores: int | None = None) -> dict:
@@ -64,23 +36,29 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (tools/rekey_stages.py) train once
     for path in {path.resolve() for r in results for path in stage_paths(r)}:
         groups.setdefault(_original_stage(path), []).append(path)
-    training, unreadable = 0.0, 0
+    recorded = _recorded_stage_seconds(results)
+    training, unreadable, from_records = 0.0, 0, 0
     for copies in groups.values():
         try:  # a copy holds its original's iterations and, if it resumed, more: the largest is the stage's cost
             training += max(stage_core_seconds(path) for path in copies)
-        except (BadInput, OSError):  # missing, or a slim copy without its logs
-            unreadable += 1
+        except (BadInput, OSError):  # missing (an archived job's), or a slim copy without its logs
+            known = [recorded[path] for path in copies if path in recorded]
+            if known:
+                training += max(known)
+                from_records += 1
+            else:
+                unreadable += 1
     evaluation, jobs, from_file_times, unknown = 0.0, 0, 0, 0
     first_to_evaluate = _first_to_evaluate(results)
     for k, r in enumerate(results):
         evaluated = stage_paths(r)[-1]  # training stops at the evaluated stage
         try:
             if "eval_wall_s" in r:
-                evaluation += float(r["eval_wall_s"]) * int(r.get("threads") or _threads(evaluated))
+                evaluation += float(r["eval_wall_s"]) * int(r.get("threads") or run_threads(evaluated))
             elif first_to_evaluate.get(evaluated.resolve()) is r:
                 finished = datetime.datetime.fromisoformat(r["finished"]).timestamp()
                 spent = max(0.0, finished - os.path.getmtime(evaluated / POLICY_FILE))
-                evaluation += spent * _threads(evaluated)
+                evaluation += spent * run_threads(evaluated)
                 from_file_times += 1
             else:
                 unknown += 1
@@ -93,6 +71,7 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     return {
         "stages": len(groups) - unreadable,
         "unreadable_stages": unreadable,
+        "stages_from_records": from_records,
         "jobs": jobs,
         "evaluated_again": len(results) - jobs_now,
         "jobs_without_evaluation_time": unknown,
@@ -102,6 +81,19 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
         "cores": cores,
         "machine_h": round((training + evaluation) / 3600 / cores, 2),
     }
+
+
+def _recorded_stage_seconds(results: list[dict]) -> dict[Path, float]:
+    """Stage run -> the core-seconds a job recorded for it when it finished (`stage_core_s`): the cost of a stage
+    whose run is gone, as for the archived results of `mapush archive`."""
+    recorded: dict[Path, float] = {}
+    for r in results:
+        seconds = r.get("stage_core_s") or {}
+        for name, path in zip(r.get("stages", {}), stage_paths(r), strict=True):
+            if name in seconds:
+                path = path.resolve()
+                recorded[path] = max(recorded.get(path, 0.0), float(seconds[name]))
+    return recorded
 
 
 def _original_stage(run_dir: Path) -> object:
@@ -143,6 +135,8 @@ def cost_line(cost: dict) -> str:
         notes.append(f"{cost['jobs_without_evaluation_time']} jobs without a recorded evaluation time left out")
     if cost.get("evaluated_again"):
         notes.append(f"{cost['evaluated_again']} jobs evaluated again after their experiment changed: both counted")
+    if cost.get("stages_from_records"):
+        notes.append(f"{cost['stages_from_records']} stages' training time as their jobs recorded it (runs archived)")
     if cost["unreadable_stages"]:
         notes.append(f"{cost['unreadable_stages']} stage runs not found or unreadable, left out")
     extra = f" ({'; '.join(notes)})" if notes else ""

@@ -1,6 +1,7 @@
 """`mapush tables`: the paper's tables as Markdown, LaTeX (booktabs) and CSV, built from sweep jobs' results.
 
-Every cell is the mean +- std over training seeds of the jobs' `result.json` evaluations; its sidecar
+Every cell is the mean +- std over training seeds of the jobs' `result.json` evaluations (under `runs/` and the
+archive of results that `mapush archive` keeps in git, `results/jobs/`); its sidecar
 `<table>.json` names the job dirs behind it. A cell with no finished job is marked with an em dash and listed
 with the reason. The paper's numbers (`paper.yaml`) stand beside ours where the paper has them.
 """
@@ -13,22 +14,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from mapush.experiments.pipeline import RESULT
+from mapush.experiments.archive import load_results
 from mapush.report import plots
 from mapush.report.cost import measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
-
-
-def load_results(root: Path) -> list[dict]:
-    """Every finished job's result under `root`, with its job dir."""
-    results = []
-    for path in sorted(Path(root).glob(f"**/{RESULT}")):
-        result = json.loads(path.read_text())
-        result["job_dir"] = str(path.parent)
-        results.append(result)
-    return results
 
 
 EXTRA_OURS = {"path_only": "Ours, path only", "go1": "Ours, legged"}
@@ -282,13 +273,14 @@ def _reference_mid_finding(rows: list) -> list[str]:
     ]
 
 
-def write_tables(root: Path, out: Path, kinds: list[str] | None = None) -> list[Table]:
-    """Write every table of every sweep variant under `root` to `out`; the quick budget's even when empty.
+def write_tables(roots: list[Path], out: Path, kinds: list[str] | None = None) -> list[Table]:
+    """Write every table of every sweep variant under the `roots` (runs dirs, archives) to `out`; the quick
+    budget's even when empty.
 
     A variant is a budget plus any stage overrides of the sweep (`result.json`'s `variant`), so that a smoke or
     a modified sweep never mixes with the plain one.
     """
-    results = load_results(root)
+    results = load_results(roots)
     variants = sorted({r["variant"] for r in results} | {"quick"})
     out.mkdir(parents=True, exist_ok=True)
     tables = []
