@@ -63,6 +63,7 @@ def recipe(cfg: dict) -> dict:
         "hidden_dims": {"actor": algo["actor"]["hidden_dims"], "critic": algo["critic"]["hidden_dims"]},
         "epochs": algo["algorithm"]["num_learning_epochs"],
         "mini_batches": algo["algorithm"]["num_mini_batches"],
+        "desired_kl": algo["algorithm"].get("desired_kl"),
         "threads": {"rollout": cfg["train"].get("rollout_threads"), "update": cfg["train"].get("update_threads")},
     }
 
