@@ -57,7 +57,7 @@ def test_the_archive_keeps_the_cells_and_the_cost_when_the_runs_are_gone(runs, t
     archive = tmp_path / "results" / "jobs"
     written, unchanged = archive_results(runs, archive)
     assert (len(written), unchanged) == (2, 0)
-    copy = json.loads((archive / "sweeps" / "main_quick" / "method=ours,seed=0,task=cuboid" / RESULT).read_text())
+    copy = json.loads((archive / "main_quick" / "method=ours,seed=0,task=cuboid" / RESULT).read_text())
     assert copy["stage_core_s"] == {"mid": 1800.0, "high": 1800.0}
     assert copy[ARCHIVED_FROM].endswith("method=ours,seed=0,task=cuboid")
     assert archive_results(runs, archive) == ([], 2)  # archiving again writes nothing new
@@ -99,3 +99,37 @@ def test_archive_rejects_a_missing_runs_dir_and_writes_nothing(cli, tmp_path):
     proc = cli("archive", "--runs", tmp_path / "nowhere", "--out", tmp_path / "jobs")
     assert proc.returncode == 2 and "nowhere" in proc.stderr and "valid" in proc.stderr
     assert not (tmp_path / "jobs").exists()
+
+
+def test_archived_jobs_keep_relative_stage_paths_and_adopted_stages_count_once(tmp_path, monkeypatch):
+    # as a sweep writes them: stage paths relative to where it ran; the cylinder's seed-1 job names a stage that
+    # tools/rekey_stages.py adopted from the one seed 0 names (the same training, counted once)
+    monkeypatch.chdir(tmp_path)
+    store = tmp_path / "runs" / "sweeps" / "stages"
+    old = stage_run(store / "00000000000000aa" / "mid" / "cylinder", "run", 1, [{0: (1800.0, 1800.0)}])
+    (old.parents[2] / "stage.yaml").write_text("identity: 00000000000000aa\n")
+    new = stage_run(store / "00000000000000bb" / "mid" / "cylinder", "run", 1, [{0: (1800.0, 1800.0)}])
+    (new.parents[2] / "stage.yaml").write_text(
+        "identity: 00000000000000bb\nadopted_from: {identity: 00000000000000aa}\n"
+    )
+    sweep = tmp_path / "runs" / "sweeps" / "main_quick"
+    for seed, run in enumerate((old, new)):
+        _job(sweep, "cylinder", seed, {"mid": run.relative_to(tmp_path)}, 0.5, f"2026-01-01T1{seed}:00:00")
+    cost_before = measured_cost(load_results([tmp_path / "runs"]))
+    assert (cost_before["stages"], cost_before["training_core_h"]) == (1, 1.0)
+
+    archive_results(tmp_path / "runs", tmp_path / "jobs")
+    assert (tmp_path / "jobs" / "stages" / "00000000000000aa" / "stage.yaml").is_file()  # the adoption chain
+    # archived again from the sweep root instead of the runs dir: the same jobs, nothing new
+    assert archive_results(tmp_path / "runs" / "sweeps", tmp_path / "jobs") == ([], 2)
+    shutil.rmtree(tmp_path / "runs")
+    cost_after = measured_cost(load_results([tmp_path / "jobs"]))
+    assert (cost_after["stages"], cost_after["training_core_h"], cost_after["unreadable_stages"]) == (1, 1.0, 0)
+
+
+def test_an_archive_inside_the_runs_dir_is_read_once(runs):
+    inside = runs / "archive"
+    archive_results(runs, inside)
+    assert archive_results(runs, inside) == ([], 2)  # its own copies are no jobs to archive
+    assert [r["seed"] for r in load_results([runs])] == [0, 1]
+    assert [r["seed"] for r in load_results([runs, inside])] == [0, 1]

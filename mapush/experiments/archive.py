@@ -1,9 +1,12 @@
 """Keep what the sweeps found when their runs are gone: `mapush archive` copies every job's `result.json` (and the
 result it superseded) from a runs dir into a folder small enough to commit (`results/jobs/`, a few kB a job),
-under the same relative path, with each stage's training core-seconds measured from its run while it is there.
+with each stage's training core-seconds measured from its run while it is there, and each stage's `stage.yaml`
+(its identity, the config that trained it, and what it was adopted from).
 
-A result holds everything a table needs (its evaluations, its learning curve, its evaluation time); the runs
-behind it (checkpoints, logs) stay under `runs/`, which git ignores and a new machine does not have.
+The archive is laid out as a sweep root: `<archive>/<sweep>/<job>/result.json` and `<archive>/stages/<identity>/
+stage.yaml`, whatever dir the jobs were archived from, so a job's stages resolve (and adopted stages count once)
+as they did under `runs/`. A result holds everything a table needs (its evaluations, its learning curve, its
+evaluation time); checkpoints and logs stay under `runs/`, which git ignores and a new machine does not have.
 `mapush tables` reads the runs dir and the archive together; a job found in both counts once, the newer result.
 """
 
@@ -11,10 +14,11 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from pathlib import Path
 
 from mapush.experiments.pipeline import RESULT, SUPERSEDED, recorded_stage_seconds
-from mapush.experiments.stages import stage_paths
+from mapush.experiments.stages import IDENTITY_FILE, identity_of, stage_dir, stage_paths, stands_for, store_root
 
 ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""
@@ -22,26 +26,35 @@ ARCHIVED_FROM = "archived_from"
 """The key of an archived result that names the job dir it was copied from."""
 
 
-def result_files(root: Path) -> list[Path]:
-    """Every job's current and superseded result under `root`, in path order."""
-    return sorted([*Path(root).glob(f"**/{RESULT}"), *Path(root).glob(f"**/{SUPERSEDED}")])
+def job_key(result_file: Path) -> tuple[str, str]:
+    """A job's name wherever its result lies: (sweep dir, job dir), e.g. ("main_quick", "method=ours,seed=0,...")."""
+    return result_file.parent.parent.name, result_file.parent.name
+
+
+def _result_files(root: Path, skip: list[Path]) -> list[Path]:
+    """Every job's current and superseded result under `root`, less those under the dirs `skip`."""
+    found = [*Path(root).glob(f"**/{RESULT}"), *Path(root).glob(f"**/{SUPERSEDED}")]
+    skip = [s.resolve() for s in skip]
+    return sorted(p for p in found if not any(s in p.resolve().parents for s in skip))
 
 
 def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
-    """Copy every result under `runs` to `out` (same relative paths), each stage's core-seconds filled in from
-    its run where the result lacks them. Returns the files written and the number already archived unchanged."""
+    """Copy every result under `runs` to `out/<sweep>/<job>/`, with each stage's core-seconds (the result's own,
+    else measured from its run now, else an earlier archived copy's) and each stage's `stage.yaml` chain to
+    `out/stages/`. Returns the files written and the number already archived unchanged."""
+    Path(out).mkdir(parents=True, exist_ok=True)
     written, unchanged = [], 0
-    out_resolved = Path(out).resolve()
-    for path in result_files(runs):
-        if out_resolved in path.resolve().parents:
-            continue  # the archive inside the runs dir: not a job
+    for path in _result_files(runs, skip=[Path(out)]):
         result = json.loads(path.read_text())
         job = {**result, "job_dir": str(path.parent)}
-        runs_of = {name: run for name, run in zip(result.get("stages", {}), stage_paths(job), strict=True)}
-        result["stage_core_s"] = {**recorded_stage_seconds(runs_of), **result.get("stage_core_s", {})}
+        runs_of = dict(zip(result.get("stages", {}), stage_paths(job), strict=True))
+        target = Path(out).joinpath(*job_key(path), path.name)
+        earlier = json.loads(target.read_text()).get("stage_core_s", {}) if target.is_file() else {}
+        result["stage_core_s"] = {**earlier, **recorded_stage_seconds(runs_of), **result.get("stage_core_s", {})}
         result.setdefault(ARCHIVED_FROM, str(path.parent))
+        for run in runs_of.values():
+            _archive_identity(run, Path(out))
         text = json.dumps(result, indent=2) + "\n"
-        target = Path(out) / path.relative_to(runs)
         if target.is_file() and target.read_text() == text:
             unchanged += 1
             continue
@@ -53,16 +66,33 @@ def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
     return written, unchanged
 
 
+def _archive_identity(run: Path, out: Path) -> None:
+    """Copy the `stage.yaml` of the stage whose run `run` is, and of every stage it was adopted from, to
+    `out/stages/`: what the stage was, and which stages count as one when their cost is added up."""
+    root = store_root(run)
+    if root is None:
+        return
+    for identity in stands_for(root, identity_of(run)):
+        source = stage_dir(root, identity) / IDENTITY_FILE
+        target = stage_dir(out, identity) / IDENTITY_FILE
+        if source.is_file() and not target.is_file():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(source, target)
+
+
 def load_results(roots: list[Path]) -> list[dict]:
     """Every finished job's result under the `roots` (runs dirs or archives), each with its `job_dir`. A job found
-    under more than one root (the same path below it) counts once: the result that finished last, else the
-    first root's."""
-    chosen: dict[Path, dict] = {}
+    more than once (the same sweep and job name) counts once: the result that finished last, else the first
+    found. A root inside another is read only as itself."""
+    chosen: dict[tuple[str, str], dict] = {}
     for root in roots:
-        for path in sorted(Path(root).glob(f"**/{RESULT}")):
+        inner = [r for r in roots if Path(root).resolve() in Path(r).resolve().parents]
+        for path in _result_files(root, skip=inner):
+            if path.name != RESULT:
+                continue
             result = json.loads(path.read_text())
             result["job_dir"] = str(path.parent)
-            key = path.relative_to(root)
+            key = job_key(path)
             if key not in chosen or str(result.get("finished", "")) > str(chosen[key].get("finished", "")):
                 chosen[key] = result
     return [chosen[key] for key in sorted(chosen)]

@@ -93,6 +93,12 @@ def store_parts(run_dir: Path) -> tuple[str, ...] | None:
     return parts[len(parts) - 1 - parts[::-1].index(STORE) :]
 
 
+def store_root(run_dir: Path) -> Path | None:
+    """The sweep root whose store holds the stage run `run_dir`; None for a run outside a store."""
+    parts = store_parts(run_dir)
+    return Path(*Path(run_dir).parts[: len(Path(run_dir).parts) - len(parts)]) if parts else None
+
+
 def identity_of(run_dir: Path) -> str | None:
     """The identity of the stage whose run `run_dir` is (the store dir it lies in); None outside a store."""
     parts = store_parts(run_dir)
@@ -157,12 +163,13 @@ def run_threads(run_dir: Path) -> int:
 
 
 def stage_paths(result: dict) -> list[Path]:
-    """The run dirs of a job's stages, in training order. A path stored relative to the directory the sweep ran in
-    (`runs/sweeps/stages/...`) that is not there from here is looked up under the job's own sweep root."""
+    """The run dirs of a job's stages, in training order. A stage run that is not where the result says (a path
+    relative to the directory the sweep ran in, `runs/sweeps/stages/...`, or a job archived by `mapush archive`)
+    is looked up under the job's own sweep root."""
     paths = []
     for text in result.get("stages", {}).values():
         path, in_store = Path(text), store_parts(Path(text))
-        if not path.is_dir() and not path.is_absolute() and in_store and "job_dir" in result:
+        if not path.is_dir() and in_store and "job_dir" in result:
             path = Path(result["job_dir"]).parents[1].joinpath(*in_store)
         paths.append(path)
     return paths

@@ -99,11 +99,10 @@ def _recorded_stage_seconds(results: list[dict]) -> dict[Path, float]:
 def _original_stage(run_dir: Path) -> object:
     """What a stage run was trained as: the identity at the end of its store dir's `adopted_from` chain (with the
     store), or the run dir itself outside a store."""
-    parts = stages.store_parts(run_dir)
-    if not parts:
+    root = stages.store_root(run_dir)
+    if root is None:
         return run_dir
-    root = Path(*run_dir.parts[: len(run_dir.parts) - len(parts)])
-    return root, stages.stands_for(root, parts[1])[-1]
+    return root, stages.stands_for(root, stages.identity_of(run_dir))[-1]
 
 
 def _superseded(result: dict) -> dict | None:
