@@ -299,6 +299,19 @@ def test_tables_with_no_runs_are_still_written_with_every_cell_missing(cli, tmp_
     assert "\u2014 (77.5 \u00b1 3.0)" in (tmp_path / "out" / "main_quick.md").read_text()
 
 
+def test_a_table_with_more_filled_cells_than_the_runs_give_is_kept_unless_overwritten(cli, tmp_path, fixture_tables):
+    out = tmp_path / "out"
+    assert cli("tables", "--runs", fixture_tables, "--out", out, "--table", "main").returncode == 0
+    before = (out / "main_quick.md").read_text()
+    (tmp_path / "empty").mkdir()  # the runs are gone
+    proc = cli("tables", "--runs", tmp_path / "empty", "--out", out, "--table", "main")
+    assert proc.returncode == 0, proc.stderr
+    assert "main_quick.{md,tex,csv,json}: kept as it was (6 cells filled; these runs give 0; --overwrite" in proc.stdout
+    assert (out / "main_quick.md").read_text() == before
+    proc = cli("tables", "--runs", tmp_path / "empty", "--out", out, "--table", "main", "--overwrite")
+    assert "0/48 cells filled" in proc.stdout and (out / "main_quick.md").read_text() != before
+
+
 def test_tables_reject_a_missing_runs_dir(cli, tmp_path):
     proc = cli("tables", "--runs", tmp_path / "nowhere")
     assert proc.returncode == 2 and "nowhere" in proc.stderr and "valid" in proc.stderr

@@ -83,7 +83,7 @@ def reproduce(
         return
     root = Path(keys.get("sweep_root", "runs"))
     archive(runs=root, out=out / "jobs")  # the results, kept in git beside the tables
-    tables(runs=[root, out / "jobs"], out=out, only=[])
+    tables(runs=[root, out / "jobs"], out=out, only=[], overwrite=False)
     if any(codes):
         raise typer.Exit(1)
 
@@ -113,11 +113,15 @@ def tables(
     ),
     out: Path = typer.Option(Path("results"), "--out", help="Where to write the tables."),
     only: list[str] = typer.Option([], "--table", help="Write only these tables (main, ocb_ablation, scale)."),
+    overwrite: bool = typer.Option(
+        False, "--overwrite", help="Replace a table in --out even where it has more filled cells than these runs give."
+    ),
 ) -> None:
     """Build the paper's tables (Markdown, LaTeX, CSV, a JSON sidecar per table), learning curves and the
-    scalability plot, from the jobs under `runs/` and those archived in `results/jobs/` (`mapush archive`)."""
+    scalability plot, from the jobs under `runs/` and those archived in `results/jobs/` (`mapush archive`). A table
+    in --out with more filled cells than the runs give (they were lost, or made elsewhere) is kept as it is."""
     from mapush.experiments.archive import ARCHIVE
-    from mapush.report.tables import BUILDERS, write_tables
+    from mapush.report.tables import BUILDERS, filled_cells, write_tables
 
     for root in runs:
         if not root.is_dir():
@@ -126,11 +130,16 @@ def tables(
         if name not in BUILDERS:
             raise BadInput(f"--table {name!r} is not a table; valid: {', '.join(BUILDERS)}")
     roots = runs or [root for root in (Path("runs"), ARCHIVE) if root.is_dir()]
-    for table in write_tables(roots, out, only or list(BUILDERS)):
-        filled = sum(bool(c.values) for _, cells in table.rows for c in cells)
+    written, kept = write_tables(roots, out, only or list(BUILDERS), overwrite)
+    for table in written:
         total = sum(len(cells) for _, cells in table.rows)
         missing = f", missing cells listed in {table.name}.md" if table.missing else ""
-        print(f"{out / table.name}.{{md,tex,csv,json}}: {filled}/{total} cells filled{missing}")
+        print(f"{out / table.name}.{{md,tex,csv,json}}: {filled_cells(table)}/{total} cells filled{missing}")
+    for table, earlier in kept:
+        print(
+            f"{out / table.name}.{{md,tex,csv,json}}: kept as it was ({earlier} cells filled; these runs give "
+            f"{filled_cells(table)}; --overwrite replaces it)"
+        )
 
 
 @app.command()

@@ -273,9 +273,26 @@ def _reference_mid_finding(rows: list) -> list[str]:
     ]
 
 
-def write_tables(roots: list[Path], out: Path, kinds: list[str] | None = None) -> list[Table]:
+def filled_cells(table: Table) -> int:
+    """How many of the table's cells have a value."""
+    return sum(bool(cell.values) for _, cells in table.rows for cell in cells)
+
+
+def filled_before(sidecar_path: Path) -> int:
+    """Filled cells of the table an earlier `mapush tables` wrote (its sidecar at `sidecar_path`); 0 for none."""
+    try:
+        return sum(cell.get("mean") is not None for cell in json.loads(Path(sidecar_path).read_text())["cells"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return 0
+
+
+def write_tables(
+    roots: list[Path], out: Path, kinds: list[str] | None = None, overwrite: bool = False
+) -> tuple[list[Table], list[tuple[Table, int]]]:
     """Write every table of every sweep variant under the `roots` (runs dirs, archives) to `out`; the quick
-    budget's even when empty.
+    budget's even when empty. Returns the tables written and those kept: where `out` already holds the table with
+    more filled cells than these runs give (runs lost, or another machine's), it is left as it is unless
+    `overwrite`; each kept table comes with its earlier count.
 
     A variant is a budget plus any stage overrides of the sweep (`result.json`'s `variant`), so that a smoke or
     a modified sweep never mixes with the plain one.
@@ -283,13 +300,17 @@ def write_tables(roots: list[Path], out: Path, kinds: list[str] | None = None) -
     results = load_results(roots)
     variants = sorted({r["variant"] for r in results} | {"quick"})
     out.mkdir(parents=True, exist_ok=True)
-    tables = []
+    tables, kept = [], []
     for variant in variants:
         present = {r["table"] for r in results if r["variant"] == variant}
         for kind, build in BUILDERS.items():
             if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
                 continue
             table = build(results, variant)
+            earlier = filled_before(out / f"{table.name}.json")
+            if earlier > filled_cells(table) and not overwrite:
+                kept.append((table, earlier))
+                continue
             table.cost = measured_cost([r for r in results if r["table"] == kind and r["variant"] == variant])
             (out / f"{table.name}.md").write_text(markdown(table))
             (out / f"{table.name}.tex").write_text(latex(table))
@@ -300,7 +321,7 @@ def write_tables(roots: list[Path], out: Path, kinds: list[str] | None = None) -
             title = f"{table.title.split(':')[0]}: learning curves, evaluated checkpoints"
             plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
             tables.append(table)
-    return tables
+    return tables, kept
 
 
 BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table}
