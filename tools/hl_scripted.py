@@ -18,8 +18,10 @@ import torch
 
 from mapush.config import compose_config, to_plain
 from mapush.envs.observations import target_heading
+from mapush.eval.rollout import first_episodes
 from mapush.levels import make_env
 from mapush.planning.geometry import rotate
+from mapush.rl.vecenv import AgentRowsVecEnv, to_rows
 
 
 def scripted_actions(env, reach: float, behind: float) -> torch.Tensor:
@@ -49,21 +51,11 @@ def main() -> None:
     args = parser.parse_args()
     cfg = to_plain(compose_config(["level=high_nav", "reward=high_nav", "seed=0", *args.overrides]))
     env = make_env({**cfg, "num_envs": args.envs}, evaluation=True)
-    done = torch.zeros(args.envs, dtype=torch.bool)
-    success = torch.zeros(args.envs, dtype=torch.bool)
-    time_s = torch.zeros(args.envs)
-    with torch.inference_mode():
-        while not done.all():
-            _, _, _, _, info = env.step(scripted_actions(env, args.reach, args.behind))
-            end = info["episode_end"]
-            new = end["done"] & ~done
-            success |= end["success"] & new
-            time_s = torch.where(new, end["time_s"], time_s)
-            done |= new
-    timeout = cfg["level"]["episode_length_s"]
-    ct = torch.where(success, time_s / timeout, torch.ones_like(time_s))
-    print(f"{cfg['task']['name']}: S.R. {100 * success.float().mean():.1f} % over {args.envs} episodes, "
-          f"C.T. {ct.mean():.2f}")  # fmt: skip
+    outcome = first_episodes(
+        env, AgentRowsVecEnv(env), lambda _: to_rows(scripted_actions(env, args.reach, args.behind)), 0
+    )
+    print(f"{cfg['task']['name']}: S.R. {100 * outcome['success_rate']:.1f} % over {args.envs} episodes, "
+          f"C.T. {outcome['completion_time']:.2f}")  # fmt: skip
 
 
 if __name__ == "__main__":

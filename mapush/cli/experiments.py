@@ -124,8 +124,7 @@ def tables(
     from mapush.report.tables import BUILDERS, filled_cells, write_tables
 
     for root in runs:
-        if not root.is_dir():
-            raise BadInput(f"--runs {str(root)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
+        _check_runs_dir(root)
     for name in only:
         if name not in BUILDERS:
             raise BadInput(f"--table {name!r} is not a table; valid: {', '.join(BUILDERS)}")
@@ -145,16 +144,22 @@ def tables(
 @app.command()
 def archive(
     runs: Path = typer.Option(Path("runs"), "--runs", help="The runs dir whose sweep jobs to archive."),
-    out: Path = typer.Option(Path("results/jobs"), "--out", help="The archive (commit it)."),
+    out: Path | None = typer.Option(None, "--out", help="The archive (commit it). Default: results/jobs."),
 ) -> None:
     """Copy every sweep job's result.json into a folder small enough to commit (results/jobs/), with each stage's
     training time, so `mapush tables` still builds the tables when the runs are gone (a new machine)."""
-    from mapush.experiments.archive import archive_results
+    from mapush.experiments.archive import ARCHIVE, archive_results
 
-    if not runs.is_dir():
-        raise BadInput(f"--runs {str(runs)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
+    _check_runs_dir(runs)
+    out = out or ARCHIVE
     written, unchanged = archive_results(runs, out)
     print(f"{out}: {len(written)} results written, {unchanged} already archived")
+
+
+def _check_runs_dir(runs: Path) -> None:
+    """BadInput unless `runs` (a --runs value) is a directory."""
+    if not runs.is_dir():
+        raise BadInput(f"--runs {str(runs)!r} is not a directory; valid: a dir holding sweep jobs (e.g. runs)")
 
 
 @app.command(context_settings=PASS_THROUGH)
