@@ -9,9 +9,11 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -67,6 +69,18 @@ def slurm_partition():
         subprocess.run(["bash", str(SLURM_LOCAL), "stop"], capture_output=True, timeout=120)
 
 
+def _settled_job(task: str, wait_s: float = 120.0) -> str:
+    """`scontrol show job` once SLURM has left RUNNING/COMPLETING: submitit reads a task's result file as soon as
+    the task writes it, which can be before the batch script exits and SLURM marks the job COMPLETED."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        job = subprocess.run(["scontrol", "show", "job", task], capture_output=True, text=True).stdout
+        state = re.search(r"JobState=(\w+)", job)
+        if state is None or state.group(1) not in ("RUNNING", "COMPLETING") or time.monotonic() > deadline:
+            return job
+        time.sleep(1.0)
+
+
 @pytest.mark.slow
 def test_a_2_job_smoke_sweep_runs_as_slurm_jobs_on_the_local_cluster(cli, tmp_path, slurm_partition):
     # Site settings that fit a 2-core node: the config's 16 CPUs and 32 GB would leave the jobs pending forever.
@@ -78,7 +92,7 @@ def test_a_2_job_smoke_sweep_runs_as_slurm_jobs_on_the_local_cluster(cli, tmp_pa
     tasks = sorted(p.name for p in (tmp_path / "sweeps").glob("*/.submitit/*_*") if p.is_dir())
     assert len(tasks) == 2, tasks
     for task in tasks:
-        job = subprocess.run(["scontrol", "show", "job", task], capture_output=True, text=True).stdout
+        job = _settled_job(task)
         assert "JobState=COMPLETED" in job and f"Partition={slurm_partition}" in job, job
         logs = "".join(p.read_text() for p in (tmp_path / "sweeps").glob(f"*/.submitit/{task}/{task}_0_log.*"))
         assert f"JobEnvironment(job_id={task}," in logs  # submitit read the job id from SLURM's environment
