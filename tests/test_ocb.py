@@ -173,3 +173,46 @@ def test_cylinder_normal_stays_within_half_an_edge_angle_of_radial():
     normals = hull_inward_normal(hull, torch.zeros(1, 2), torch.zeros(1), points.unsqueeze(0))[0]
     cos_off = (normals * -points / 2.0).sum(-1)
     assert cos_off.min().item() >= math.cos(math.pi / 64) - 1e-5
+
+
+# ---------------------------------------------------------------------------------------------------- oracle
+@pytest.mark.parametrize("object_cfg", [CUBOID, TBLOCK, CYLINDER], ids=["cuboid", "tblock", "cylinder"])
+def test_hull_normal_agrees_with_shapely_on_random_poses_and_points(object_cfg):
+    """Against shapely (GEOS): outside, the unit vector to the nearest point of the hull's boundary; inside, the
+    inward normal of the nearest edge. Inside points with a near-tie between two edges (either is right) are left
+    out, and so are points on the boundary, where the gap has no direction."""
+    shapely = pytest.importorskip("shapely")
+    from shapely.ops import nearest_points
+
+    rng = np.random.default_rng(0)
+    hull = object_hull(object_cfg)
+    E, A = 200, 3
+    object_xy, yaw = rng.uniform(-5, 5, (E, 2)), rng.uniform(-math.pi, math.pi, E)
+    points = object_xy[:, None] + rng.normal(0.0, 1.0, (E, A, 2))
+    got = hull_inward_normal(
+        torch.tensor(hull, dtype=torch.float32),
+        torch.tensor(object_xy, dtype=torch.float32),
+        torch.tensor(yaw, dtype=torch.float32),
+        torch.tensor(points, dtype=torch.float32),
+    ).numpy()
+    checked = 0
+    for e in range(E):
+        c, s = math.cos(yaw[e]), math.sin(yaw[e])
+        world = hull @ np.array([[c, s], [-s, c]]) + object_xy[e]  # R(yaw) v + b, as row vectors
+        polygon = shapely.Polygon(world)
+        edges = [shapely.LineString([world[k], world[(k + 1) % len(world)]]) for k in range(len(world))]
+        for a in range(A):
+            point = shapely.Point(points[e, a])
+            if polygon.distance(point) == 0.0 and polygon.exterior.distance(point) > 1e-3:  # inside
+                (d0, k), (d1, _) = sorted((edge.distance(point), k) for k, edge in enumerate(edges))[:2]
+                if d1 - d0 < 1e-4:
+                    continue
+                start, end = world[k], world[(k + 1) % len(world)]
+                want = np.array([start[1] - end[1], end[0] - start[0]])  # left normal of a CCW edge: inward
+            elif polygon.exterior.distance(point) > 1e-3:
+                want = np.array(nearest_points(polygon.exterior, point)[0].coords[0]) - points[e, a]
+            else:
+                continue
+            np.testing.assert_allclose(got[e, a], want / np.linalg.norm(want), atol=2e-3, err_msg=f"env {e}, robot {a}")
+            checked += 1
+    assert checked > 0.9 * E * A

@@ -4,8 +4,8 @@ One env-step is one 50 Hz control step of one env with all its robots (architect
 decision holds `level.decision_steps` of them. The raw figure steps the same `mujoco.batch` under the controls the
 env's own timed run applied, replayed without the env: the same physics work (robots walking, pushing, touching)
 with nothing around it, the limit on this machine. (Random controls would be cheaper physics than the env's: robots
-that touch nothing.) Env and raw are timed alternately, best round of each, so drift on a shared machine hits both
-alike.
+that touch nothing.) The env runs on the rollout's torch threads (`train.rollout_threads`), as training runs it.
+Env and raw are timed alternately, best round of each, so drift on a shared machine hits both alike.
 """
 
 from __future__ import annotations
@@ -185,12 +185,17 @@ def run_bench(cfg: DictConfig) -> dict:
     steps = int(cfg.bench.steps)
     env = make_env(plain)
     gen = torch.Generator().manual_seed(0)
-    _time_env(env, 2, gen)
-    env_rates, raw_rates = [], []
-    for _ in range(ROUNDS):
-        rate, controls = _time_env(env, steps, gen)
-        env_rates.append(rate)
-        raw_rates.append(_time_raw(env, controls))
+    threads = torch.get_num_threads()
+    torch.set_num_threads(torch_threads(plain)[0])  # the env as training's rollout runs it (`MapushRunner`)
+    try:
+        _time_env(env, 2, gen)
+        env_rates, raw_rates = [], []
+        for _ in range(ROUNDS):
+            rate, controls = _time_env(env, steps, gen)
+            env_rates.append(rate)
+            raw_rates.append(_time_raw(env, controls))
+    finally:
+        torch.set_num_threads(threads)
     control_steps = _control_steps(env)
     del env
     training = _time_training(plain, int(cfg.bench.train_iterations), control_steps)

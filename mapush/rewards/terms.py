@@ -6,6 +6,8 @@ Terms read the env's state (`env.state`, a `PushState`: `object_xy`, `robot_xy`,
 
 from __future__ import annotations
 
+import functools
+
 import torch
 
 from mapush.errors import BadInput
@@ -60,6 +62,20 @@ def occlusion_based(env) -> torch.Tensor:
     return (normal * to_goal.unsqueeze(1)).sum(-1)
 
 
+@functools.lru_cache(maxsize=16)
+def _hull_edges(hull: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """What `hull_inward_normal` needs of a hull (V, 2), computed once per hull tensor: edge starts and vectors,
+    unit inward normals (V, 2), the (2, 3V) weights and (3V,) bias of its per-edge affine maps (float64), |e_k|^2."""
+    start, edge = hull, torch.roll(hull, -1, 0) - hull  # edge k runs from vertex k to k + 1
+    length = torch.linalg.vector_norm(edge, dim=-1, keepdim=True)
+    left = torch.stack([-edge[:, 1], edge[:, 0]], -1) / length  # unit left normal: inward for CCW
+    s, e, n = start.double(), edge.double(), left.double()
+    len2 = (e * e).sum(-1)
+    weights = torch.cat([e / len2.unsqueeze(1), -2.0 * s, n]).T
+    bias = torch.cat([-(s * e).sum(-1) / len2, (s * s).sum(-1), -(s * n).sum(-1)])
+    return start, edge, left, weights, bias, len2
+
+
 def hull_inward_normal(
     hull: torch.Tensor, object_xy: torch.Tensor, object_yaw: torch.Tensor, points: torch.Tensor
 ) -> torch.Tensor:
@@ -69,6 +85,9 @@ def hull_inward_normal(
     edge's inward normal, at a vertex it turns continuously between the two edges' normals). Inside (possible
     in the T-block's notches) it is the inward normal of the closest edge.
 
+    Every per-edge quantity is affine in the query point, so one matrix product gives them all for every point
+    and edge at once (the cylinder's 64-gon made the edge-by-edge version the env's costliest term).
+
     Args:
         hull: CCW vertices in the object frame, (V, 2).
         object_xy: (E, 2). object_yaw: (E,). points: (E, A, 2), world frame.
@@ -76,25 +95,25 @@ def hull_inward_normal(
     Returns:
         Shape: (E, A, 2).
     """
-    q = rotate(points - object_xy.unsqueeze(1), object_yaw, inverse=True)  # R(-yaw) (p - b): in the object frame
-    edge = torch.roll(hull, -1, 0) - hull  # (V, 2), edge k from vertex k to k + 1
-    (sx, sy), (ex, ey) = hull.unbind(-1), edge.unbind(-1)
-    # per-component (E, A, V) tensors: the cylinder's 64-gon makes this the costliest reward term
-    dx, dy = q[..., 0:1] - sx, q[..., 1:2] - sy  # from each edge's start to the point
-    t = ((dx * ex + dy * ey) / (ex * ex + ey * ey)).clamp(0.0, 1.0)  # the closest point's place along the edge
-    gx, gy = (sx + t * ex) - q[..., 0:1], (sy + t * ey) - q[..., 1:2]  # from the point to it
-    # nearest edge; vector_norm rounds as the earlier code did, so near-ties (a shared vertex) pick the same edge
-    k = torch.linalg.vector_norm(torch.stack([gx, gy], -1), dim=-1).argmin(-1, keepdim=True)
-    gap_k = torch.stack([gx.gather(2, k), gy.gather(2, k)], -1).squeeze(2)  # (E, A, 2)
-    dist_k = torch.linalg.vector_norm(gap_k, dim=-1)
-    edge_k = edge[k.squeeze(-1)]
-    edge_normal = torch.stack([-edge_k[..., 1], edge_k[..., 0]], -1)  # left normal: inward for CCW
-    edge_normal = edge_normal / torch.linalg.vector_norm(edge_normal, dim=-1, keepdim=True)
-    inside = (dx * ey - dy * ex <= 0).all(-1)  # left of (or on) every edge
-    use_gap = (~inside) & (dist_k > 1e-6)
-    n = torch.where(use_gap.unsqueeze(-1), gap_k / dist_k.clamp_min(1e-6).unsqueeze(-1), edge_normal)
-    # back to the world frame: R(yaw) n
-    return rotate(n, object_yaw)
+    E, A = points.shape[0], points.shape[1]
+    start, edge, left, weights, bias, len2 = _hull_edges(hull)
+    cos, sin = torch.cos(object_yaw).unsqueeze(1), torch.sin(object_yaw).unsqueeze(1)  # (E, 1)
+    rel = points - object_xy.unsqueeze(1)
+    qx, qy = cos * rel[..., 0] + sin * rel[..., 1], cos * rel[..., 1] - sin * rel[..., 0]  # R(-yaw) rel, (E, A)
+    q = torch.stack([qx, qy], -1).view(E * A, 2)  # in the object frame
+    # per point and edge k, all affine in q: u = (q - s_k).e_k / |e_k|^2, the closest point's place
+    # along the edge before clamping; w = |q - s_k|^2 - |q|^2; c = (q - s_k).left_k, >= 0 left of edge k. Float64:
+    # ranking by the expanded w cancels digits that float32 lacks at a vertex.
+    q64 = q.double()  # elementwise, not a matrix product: BLAS threads would fight the physics threads for cores
+    u, w, c = torch.addcmul(bias, q64[:, :1], weights[0]).addcmul_(q64[:, 1:], weights[1]).chunk(3, dim=1)
+    t = u.clamp(0.0, 1.0)
+    k = torch.addcmul(w, t, (t - 2.0 * u) * len2).argmin(1)  # nearest edge: |q - (s_k + t e_k)|^2 - |q|^2
+    gap = start[k] + t.gather(1, k.unsqueeze(1)).float() * edge[k] - q  # from the point to its closest boundary point
+    dist = torch.linalg.vector_norm(gap, dim=-1, keepdim=True)
+    inside = (c >= 0).all(1, keepdim=True)  # left of (or on) every edge
+    n = torch.where(~inside & (dist > 1e-6), gap / dist.clamp_min(1e-6), left[k]).view(E, A, 2)
+    nx, ny = n[..., 0], n[..., 1]
+    return torch.stack([cos * nx - sin * ny, sin * nx + cos * ny], -1)  # back to the world frame: R(yaw) n
 
 
 # ---------------------------------------------------------------------------------------------------------------
