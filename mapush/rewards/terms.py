@@ -11,7 +11,6 @@ import functools
 import torch
 
 from mapush.errors import BadInput
-from mapush.planning.geometry import rotate
 from mapush.planning.paths import distance_to_path
 
 
@@ -64,8 +63,9 @@ def occlusion_based(env) -> torch.Tensor:
 
 @functools.lru_cache(maxsize=16)
 def _hull_edges(hull: torch.Tensor) -> tuple[torch.Tensor, ...]:
-    """What `hull_inward_normal` needs of a hull (V, 2), computed once per hull tensor: edge starts and vectors,
-    unit inward normals (V, 2), the (2, 3V) weights and (3V,) bias of its per-edge affine maps (float64), |e_k|^2."""
+    """What `hull_inward_normal` needs of a hull (V, 2), computed once per hull tensor (an env's hull is never
+    changed in place): edge starts and vectors, unit inward normals (V, 2), the (2, 3V) weights and (3V,) bias of
+    its per-edge affine maps (float64), |e_k|^2."""
     start, edge = hull, torch.roll(hull, -1, 0) - hull  # edge k runs from vertex k to k + 1
     length = torch.linalg.vector_norm(edge, dim=-1, keepdim=True)
     left = torch.stack([-edge[:, 1], edge[:, 0]], -1) / length  # unit left normal: inward for CCW
@@ -85,7 +85,7 @@ def hull_inward_normal(
     edge's inward normal, at a vertex it turns continuously between the two edges' normals). Inside (possible
     in the T-block's notches) it is the inward normal of the closest edge.
 
-    Every per-edge quantity is affine in the query point, so one matrix product gives them all for every point
+    Every per-edge quantity is affine in the query point, so two fused multiply-adds give them all for every point
     and edge at once (the cylinder's 64-gon made the edge-by-edge version the env's costliest term).
 
     Args:
