@@ -154,6 +154,28 @@ def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli
     assert "its evaluations changed (old_name -> main)" in cli(*args).stdout
 
 
+def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(cli, tmp_path, capsys):
+    root, archive = tmp_path / "sweeps", tmp_path / "archive"
+    args = ["sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder", *SMOKE, f"sweep_root={root}"]
+    cfg = _job_cfg(root, f"archive={archive}")
+    now = {stage.name: stage.identity for stage in planned_stages(cfg)}
+    sweep_dir = Path(cli(*args).stdout.split(":")[0].removeprefix("sweep "))
+    archived = archive / sweep_dir.name / "method=sa,seed=0,task=cylinder" / RESULT
+    archived.parent.mkdir(parents=True)
+    archived.write_text(json.dumps(_fake_result(cfg, now)))  # its runs are not here: `mapush archive` kept this
+
+    assert "1 jobs, 1 finished; 0 stages to run" in cli(*args, f"archive={archive}").stdout
+    assert "0 finished; 2 stages to run; 2 to train" in cli(*args, "archive=null").stdout
+    job = sweep_dir / "method=sa,seed=0,task=cylinder"
+    job.mkdir(parents=True)  # Hydra makes a job's dir
+    assert run_job(cfg, job, 1) == json.loads(archived.read_text())
+    assert "archived in" in capsys.readouterr().out
+    assert not (root / "stages").exists() and not (job / RESULT).exists()  # nothing trained, nothing written
+    # a changed budget is another high-level stage: the archived result does not stand for it
+    longer = [*args, f"archive={archive}", "experiment.budgets.smoke.stages.high.env_steps=1600"]
+    assert "1 jobs, 0 finished; 2 stages to run; 2 to train" in cli(*longer).stdout
+
+
 def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp_path):
     cfg = _job_cfg(tmp_path)
     result = _fake_result(cfg, {stage.name: stage.identity for stage in planned_stages(cfg)})

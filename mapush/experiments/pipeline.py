@@ -146,6 +146,10 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     done = job_dir / RESULT
     planned = planned_stages(cfg)
     earlier = None  # a result the experiment has changed under: what of it still holds is kept
+    archived = archived_result(cfg, job_dir)
+    if not done.is_file() and archived is not None:
+        print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
+        return json.loads(archived.read_text())
     if done.is_file():
         result = json.loads(done.read_text())
         changed = result_changes(result, cfg, planned)
@@ -212,6 +216,18 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     return result
 
 
+def archived_result(cfg: DictConfig, job_dir: Path) -> Path | None:
+    """The job's `result.json` in the archive (`cfg.archive`, `mapush archive`), if it is there and finished as the
+    experiment plans the job now: such a job is done, though its runs are on another machine or gone."""
+    if not cfg.get("archive"):
+        return None
+    archive = Path(cfg.archive)
+    path = archive / Path(job_dir).parent.name / Path(job_dir).name / RESULT
+    if not path.is_file():
+        return None
+    return None if result_changes(json.loads(path.read_text()), cfg, planned_stages(cfg), archive) else path
+
+
 def recorded_stage_seconds(runs: dict[str, Path]) -> dict[str, float]:
     """Each stage's training core-seconds as its run records them now (`stages.stage_core_seconds`); a stage whose
     logs cannot be read is left out."""
@@ -254,21 +270,22 @@ def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str) -> b
     return BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) != record.get("lowlevel_policy")
 
 
-def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> set[str]:
+def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
     """Names of the planned stages that `result` was made with: the same identity, or one the planned stage was
-    adopted from (`stages.stands_for`)."""
+    adopted from (`stages.stands_for`, read from the store under `root`, by default the sweep root)."""
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
-    root = Path(cfg.sweep_root)
+    root = Path(cfg.sweep_root if root is None else root)
     return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
 
 
-def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> str:
+def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> str:
     """What makes a job's finished `result` stale against its experiment now, "" when nothing does: another stage
     identity (a budget, reward or tracker value changed), or other evaluations or curve than the experiment asks for.
+    `root` holds the stage records (`stage.yaml`) of the result's stages: the sweep root, or the archive.
     """
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
     wanted = {stage.name: stage.identity for stage in planned}
-    if made.keys() != wanted.keys() or _same_stages(result, cfg, planned) != set(wanted):
+    if made.keys() != wanted.keys() or _same_stages(result, cfg, planned, root) != set(wanted):
         return "its stages changed (" + ", ".join(
             f"{name}: {made.get(name)} -> {wanted.get(name)}" for name in sorted({*made, *wanted})
             if made.get(name) != wanted.get(name)

@@ -24,7 +24,15 @@ from mapush.config import CONF_DIR, compose_config, group_options, to_plain
 from mapush.errors import BadInput
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
-from mapush.experiments.pipeline import RESULT, budget_of, planned_stages, result_changes, run_job, stage_plan
+from mapush.experiments.pipeline import (
+    RESULT,
+    archived_result,
+    budget_of,
+    planned_stages,
+    result_changes,
+    run_job,
+    stage_plan,
+)
 from mapush.experiments.stages import STAGE_REF
 from mapush.levels import env_class
 
@@ -39,6 +47,7 @@ SWEEP_KEYS = (
     "sweep_name",
     "job_threads",
     "rerun_changed",
+    "archive",
 )
 """Keys of conf/sweep.yaml; any other override (e.g. `debug=smoke`, `algo.entropy_coef=0.01`) goes to every stage."""
 FAILED = "failed.txt"
@@ -193,6 +202,9 @@ def dry_run(overrides: list[str]) -> list[dict]:
         job = ",".join(sorted(o for o in combo if o.partition("=")[0] not in unnamed))  # Hydra's override_dirname
         planned = planned_stages(cfg)
         result = Path(hydra_cfg.sweep.dir) / job / RESULT
+        if not result.is_file() and archived_result(cfg, result.parent) is not None:
+            finished += 1  # finished on another machine, and archived (`mapush archive`)
+            continue
         if result.is_file():
             why = result_changes(json.loads(result.read_text()), cfg, planned)
             finished += 1
