@@ -146,8 +146,8 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     done = job_dir / RESULT
     planned = planned_stages(cfg)
     earlier = None  # a result the experiment has changed under: what of it still holds is kept
-    archived = archived_result(cfg, job_dir)
-    if not done.is_file() and archived is not None:
+    archived = None if done.is_file() else archived_result(cfg, job_dir)
+    if archived is not None:  # finished on another machine
         print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
         return json.loads(archived.read_text())
     if done.is_file():
