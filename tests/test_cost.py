@@ -9,6 +9,7 @@ import os
 import pytest
 from stand_ins import stage_run
 
+from mapush.experiments.stages import stage_core_seconds
 from mapush.report.cost import cost_line, measured_cost
 from mapush.report.formats import Table, markdown, sidecar
 
@@ -27,6 +28,16 @@ def two_jobs(tmp_path) -> list[dict]:
         {"stages": stages, "finished": finished.isoformat()},  # before eval_wall_s: file times
         {"stages": dict(stages), "eval_wall_s": 900.0, "threads": 2, "finished": later},  # reuses both stages
     ]
+
+
+def test_an_iteration_that_stood_still_counts_as_a_median_one(tmp_path):
+    # 30 iterations of 3 s on 1 thread; iteration 12 includes 26 minutes with the process stopped (kill -STOP)
+    times = {it: (1.0, 2.0) for it in range(30)}
+    times[12] = (1.0, 1560.0 + 2.0)
+    assert stage_core_seconds(stage_run(tmp_path, "paused", 1, [times])) == pytest.approx(90.0)
+    # a slow iteration below the factor is work, and counts whole: 29 x 3 s + 50 s
+    times[12] = (1.0, 49.0)
+    assert stage_core_seconds(stage_run(tmp_path, "slow", 2, [times])) == pytest.approx(2 * (29 * 3.0 + 50.0))
 
 
 def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):

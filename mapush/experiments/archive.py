@@ -39,9 +39,10 @@ def _result_files(root: Path, skip: list[Path]) -> list[Path]:
 
 
 def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
-    """Copy every result under `runs` to `out/<sweep>/<job>/`, with each stage's core-seconds (the result's own,
-    else measured from its run now, else an earlier archived copy's) and each stage's `stage.yaml` chain to
-    `out/stages/`. Returns the files written and the number already archived unchanged."""
+    """Copy every result under `runs` to `out/<sweep>/<job>/`, with each stage's core-seconds (measured from its
+    run now, as `stage_core_seconds` counts them today, else the result's own, else an earlier archived copy's) and
+    each stage's `stage.yaml` chain to `out/stages/`. Returns the files written and the number already archived
+    unchanged."""
     Path(out).mkdir(parents=True, exist_ok=True)
     written, unchanged = [], 0
     for path in _result_files(runs, skip=[Path(out)]):
@@ -50,7 +51,7 @@ def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
         runs_of = dict(zip(result.get("stages", {}), stage_paths(job), strict=True))
         target = Path(out).joinpath(*job_key(path), path.name)
         earlier = json.loads(target.read_text()).get("stage_core_s", {}) if target.is_file() else {}
-        result["stage_core_s"] = {**earlier, **recorded_stage_seconds(runs_of), **result.get("stage_core_s", {})}
+        result["stage_core_s"] = {**earlier, **result.get("stage_core_s", {}), **recorded_stage_seconds(runs_of)}
         result.setdefault(ARCHIVED_FROM, str(path.parent))
         for run in runs_of.values():
             _archive_identity(run, Path(out))

@@ -17,6 +17,7 @@ import fcntl
 import hashlib
 import json
 import os
+import statistics
 from pathlib import Path
 
 from omegaconf import OmegaConf
@@ -51,6 +52,8 @@ STAGE_REF = "@"
 IDENTITY_FILE = "stage.yaml"
 ITERATION_TIMES = ("Perf/collection_time", "Perf/learning_time")
 """The training scalars whose sum is one PPO iteration's wall time."""
+PAUSED_FACTOR = 20.0
+"""An iteration this many times longer than its stage's median was paused, not trained (`stage_core_seconds`)."""
 
 
 def compose_stage(overrides: list[str], iterations_of) -> dict:
@@ -151,9 +154,17 @@ def _is_ref(override: str) -> bool:
 
 def stage_core_seconds(run_dir: Path) -> float:
     """Core-seconds of one stage's training: its iterations' wall time (`metrics.mcap`, each iteration once, as
-    rsl-rl measures it) times its MuJoCo threads."""
+    rsl-rl measures it) times its MuJoCo threads. An iteration longer than `PAUSED_FACTOR` times the stage's
+    median stood still (its process stopped, e.g. `kill -STOP` while something else ran) and counts as a median
+    one."""
     scalars = training_scalars(run_dir, prefix="Perf/")
-    seconds = sum(sum(scalars.get(tag, {}).values()) for tag in ITERATION_TIMES)
+    per_iteration: dict[int, float] = {}
+    for tag in ITERATION_TIMES:
+        for iteration, value in scalars.get(tag, {}).items():
+            per_iteration[iteration] = per_iteration.get(iteration, 0.0) + value
+    times = list(per_iteration.values())
+    typical = statistics.median(times) if times else 0.0
+    seconds = sum(t if t <= PAUSED_FACTOR * typical else typical for t in times)
     return seconds * run_threads(run_dir)
 
 
