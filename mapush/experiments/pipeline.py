@@ -146,7 +146,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     done = job_dir / RESULT
     planned = planned_stages(cfg)
     earlier = None  # a result the experiment has changed under: what of it still holds is kept
-    archived = None if done.is_file() else archived_result(cfg, job_dir)
+    archived = None if done.is_file() else archived_result(cfg, job_dir, planned)
     if archived is not None:  # finished on another machine
         print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
         return json.loads(archived.read_text())
@@ -216,16 +216,16 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     return result
 
 
-def archived_result(cfg: DictConfig, job_dir: Path) -> Path | None:
+def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:
     """The job's `result.json` in the archive (`cfg.archive`, `mapush archive`), if it is there and finished as the
-    experiment plans the job now: such a job is done, though its runs are on another machine or gone."""
+    experiment plans the job now (`planned`): such a job is done, though its runs are on another machine or gone."""
     if not cfg.get("archive"):
         return None
     archive = Path(cfg.archive)
     path = archive / Path(job_dir).parent.name / Path(job_dir).name / RESULT
     if not path.is_file():
         return None
-    return None if result_changes(json.loads(path.read_text()), cfg, planned_stages(cfg), archive) else path
+    return None if result_changes(json.loads(path.read_text()), cfg, planned, archive) else path
 
 
 def recorded_stage_seconds(runs: dict[str, Path]) -> dict[str, float]:

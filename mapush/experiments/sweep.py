@@ -202,7 +202,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
         job = ",".join(sorted(o for o in combo if o.partition("=")[0] not in unnamed))  # Hydra's override_dirname
         planned = planned_stages(cfg)
         result = Path(hydra_cfg.sweep.dir) / job / RESULT
-        if not result.is_file() and archived_result(cfg, result.parent) is not None:
+        if not result.is_file() and archived_result(cfg, result.parent, planned) is not None:
             finished += 1  # finished on another machine, and archived (`mapush archive`)
             continue
         if result.is_file():
