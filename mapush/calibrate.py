@@ -9,8 +9,9 @@ free responses: the first-order step response v(t) = v_ss (1 - exp(-t / lag)), l
 Its force limit is fitted to the pushes: the tracker pushes the same objects with a grid of force limits (one env
 per value) and the smallest value whose steady object speed best matches the Go1's wins (a push that does not
 saturate the robot fits every larger limit equally). The fitted values replace `lag`,
-`yaw_lag` and `max_force` in `conf/lowlevel/tracker.yaml`; `calibration.json` and `calibration.png` (both responses)
-go to the output dir.
+`yaw_lag` and `max_force` in `conf/lowlevel/tracker.yaml`, except a lag whose axis the robot does not hold in steady
+state (`STEADY_MIN`), which is reported instead; `calibration.json` and `calibration.png` (both responses) go to the
+output dir.
 """
 
 from __future__ import annotations
@@ -35,6 +36,10 @@ FORCE_GRID = np.linspace(5.0, 150.0, 30)
 PARKED_XY = (9.0, 9.0)
 """Where the object waits during the free experiments, m (the robots start at the origin)."""
 AXES = ("vx", "vy", "yaw_rate")
+LAG_OF_AXIS = {"vx": "lag", "vy": "lag", "yaw_rate": "yaw_lag"}
+STEADY_MIN = 0.8
+"""A robot that holds less than this share of a step command over its last 0.5 s does not follow a first-order lag:
+the calibration says so (`warnings`) instead of trusting the fitted lag."""
 
 
 def step_commands(steps: list[float]) -> np.ndarray:
@@ -120,6 +125,16 @@ def fit_lag(response: np.ndarray, commanded: np.ndarray, dt: float) -> float:
     return float(LAG_GRID[error.argmin()])
 
 
+def steady_fractions(response: np.ndarray, commands: np.ndarray, tail: int) -> dict[str, float]:
+    """Per axis (`AXES`), the mean over the step commands along it of the free response's last `tail` steps as a
+    share of the command: about 1 for a robot that holds what it is told, as a first-order lag does."""
+    shares = {}
+    for axis, name in enumerate(AXES):
+        rows = np.flatnonzero(commands[:, axis] != 0)
+        shares[name] = float((response[rows, -tail:, axis].mean(1) / commands[rows, axis]).mean())
+    return shares
+
+
 def calibrate(
     reference: list[str],
     tasks: list[str],
@@ -146,6 +161,7 @@ def calibrate(
     lag = fit_lag(linear, np.concatenate([commands[:n, 0], commands[n : 2 * n, 1]]), free["dt"])
     yaw_lag = fit_lag(free["robot_vel"][2 * n :, :, 2], commands[2 * n :, 2], free["dt"])
     push_speed = max(steps)
+    tail = max(1, round(0.5 / free["dt"]))  # steady state: the last 0.5 s
     pushes = {}
     for task in tasks:
         legged_cfg = to_plain(compose_config([*go1_overrides, f"task={task}"]))
@@ -164,14 +180,22 @@ def calibrate(
             configure=_force_limits,
         )
         pushes[task] = {"legged": legged["object_speed"][0], "tracker": run["object_speed"]}
-    tail = max(1, round(0.5 / free["dt"]))  # steady state: the last 0.5 s
     error = sum((p["tracker"][:, -tail:].mean(1) - p["legged"][-tail:].mean()) ** 2 for p in pushes.values())  # (G,)
     # every limit above what the push needs fits equally well: take the smallest of the best fits
     max_force = float(FORCE_GRID[error <= error.min() * 1.01 + 1e-6][0]) if pushes else None
     fitted = {"lag": lag, "yaw_lag": yaw_lag, **({"max_force": max_force} if max_force is not None else {})}
-    write_tracker_config(config_path, fitted, source)
+    steady = steady_fractions(free["robot_vel"], commands, tail)
+    untrusted = {LAG_OF_AXIS[axis]: share for axis, share in steady.items() if share < STEADY_MIN}
+    warnings = [
+        f"{key}: the robot holds {share:.0%} of its step command after {duration_s:g} s, which no first-order lag "
+        f"does; {key} left as it was in {config_path}"
+        for key, share in untrusted.items()
+    ]
+    write_tracker_config(config_path, {k: v for k, v in fitted.items() if k not in untrusted}, source)
     summary = {
         "fitted": fitted,
+        "steady_fraction": steady,
+        "warnings": warnings,
         "reference": reference,
         "steps": steps,
         "settle_s": settle_s,

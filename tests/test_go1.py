@@ -161,7 +161,8 @@ def test_a_2_iteration_low_level_training_and_its_eval_through_the_cli(cli, low_
     assert evaluated.returncode == 0, evaluated.stderr
     result = json.loads((run_dir / "eval.json").read_text())
     assert 0.0 <= result["fall_rate"] <= 1.0 and 0.0 <= result["velocity_error"] < 5.0
-    assert "velocity error" in evaluated.stdout
+    assert 0.0 <= result["yaw_rate_error"] < 5.0
+    assert "velocity error" in evaluated.stdout and "yaw rate error" in evaluated.stdout
     assert (run_dir / "episodes.mcap").stat().st_size > 0  # the Go1 walking, for Foxglove
 
 
@@ -262,6 +263,7 @@ def test_calibrating_the_tracker_against_itself_recovers_its_lag(cli, tmp_path):
     tracker = OmegaConf.load(default_config_path())
     assert fitted["lag"] == pytest.approx(tracker.lag, rel=0.1)
     assert fitted["yaw_lag"] == pytest.approx(tracker.yaw_lag, rel=0.1)
+    assert json.loads((tmp_path / "cal" / "calibration.json").read_text())["warnings"] == []  # it holds commands
     assert (tmp_path / "cal" / "calibration.png").stat().st_size > 0
 
 
@@ -279,29 +281,77 @@ def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli
     for key, value in fitted.items():
         low, high = physical_bounds()[key]
         assert low <= value <= high
+    summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    # a 2-iteration policy may not hold its commands: a lag it does not follow is reported, not written
+    untrusted = {w.split(":")[0] for w in summary["warnings"]}
+    assert untrusted <= {"lag", "yaw_lag"} and proc.stdout.count("warning: ") == len(untrusted)
     after = config.read_text().splitlines()
     changed = [a for b, a in zip(before, after, strict=True) if a != b]
-    assert sorted(line.split(":")[0] for line in changed) == ["lag", "max_force", "yaw_lag"]
+    assert sorted(line.split(":")[0] for line in changed) == sorted({"lag", "max_force", "yaw_lag"} - untrusted)
     assert all("calibrated against go1" in line for line in changed)
-    assert OmegaConf.load(config).lag == pytest.approx(fitted["lag"], rel=1e-3)
+    if "lag" not in untrusted:
+        assert OmegaConf.load(config).lag == pytest.approx(fitted["lag"], rel=1e-3)
 
 
-def test_the_shipped_policy_walks_forward_at_half_a_metre_per_second_within_the_tracking_bound(cfg_for):
-    """5 s of (0.5 m/s, 0, 0) on flat ground, no pushes: the shipped policy tracks it within the 0.1 m/s target."""
+def test_a_robot_that_does_not_hold_a_command_is_told_apart_from_a_first_order_lag():
+    from mapush.calibrate import STEADY_MIN, step_commands, steady_fractions
+
+    dt, lag = 0.02, 0.2
+    t = (np.arange(150) + 1) * dt
+    commands = step_commands([0.25, 0.5])  # (6, 3): two steps along each axis
+    size = commands.max(1, keepdims=True)  # each row's one nonzero command
+    follows = (size * (1 - np.exp(-t / lag)))[:, :, None] * (commands != 0)[:, None, :]  # (6, T, 3)
+    assert all(share == pytest.approx(1.0, abs=0.01) for share in steady_fractions(follows, commands, 25).values())
+    fades = follows.copy()
+    fades[4:, :, 2] *= np.exp(-t / 1.0)[None, :]  # turns at first, then stops turning (the force-tuned Go1, 11-25)
+    shares = steady_fractions(fades, commands, 25)
+    assert shares["yaw_rate"] < STEADY_MIN and shares["vx"] == pytest.approx(1.0, abs=0.01)
+
+
+def test_a_turn_fraction_of_the_commands_turns_on_the_spot(cfg_for):
+    from mapush.envs.low import LocomotionEnv
+
+    env = LocomotionEnv(cfg_for("level=low", "level.commands.turn_fraction=0.5"), num_envs=4)
+    commands = env._sample_commands(2000)
+    on_the_spot = (commands[:, :2] == 0).all(-1)
+    assert 0.45 < on_the_spot.float().mean() < 0.6  # half turn, a tenth of the rest stand still (0.5 + 0.05)
+    assert commands[on_the_spot, 2].abs().mean() > 0.4  # they still turn, drawn from [-1, 1] rad/s
+
+
+@pytest.mark.parametrize(
+    ("command", "error", "bound"),
+    [
+        ((0.5, 0.0, 0.0), "velocity_error", 0.1),
+        pytest.param(
+            (0.0, 0.0, 0.5),
+            "yaw_rate_error",
+            0.1,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="the shipped Go1 stopped turning on the spot when fine-tuned under a held force (0.42 rad/s "
+                "error); a Go1 fine-tuned to turn again made the legged hierarchies fall more (results/README.md)",
+            ),
+        ),
+    ],
+    ids=["forward", "turning"],
+)
+def test_the_shipped_policy_holds_a_command_within_the_tracking_bound(cfg_for, command, error, bound):
+    """5 s of one command on flat ground, no pushes: the shipped policy tracks it within 20 % of the command (0.5
+    m/s forward: 0.1 m/s; 0.5 rad/s turning: 0.1 rad/s), measured after the first second."""
     from mapush.envs.low import LocomotionEnv
     from mapush.lowlevel.go1 import load_locomotion_policy
 
     env = LocomotionEnv(cfg_for("level=low"), num_envs=4, evaluation=True)  # evaluation: no pushes
     policy = load_locomotion_policy(None)  # lowlevel.policy: null, the shipped one
-    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    env.commands[:] = torch.tensor(command)
     obs, errors = env.observations(), []
     with torch.inference_mode():
         for step in range(round(5.0 / env.dt)):
             obs, _, terminated, _, _ = env.step(policy(obs["policy"][:, 0]).unsqueeze(1))
             assert not terminated.any(), f"a fall at {step * env.dt:.2f} s"
             if step * env.dt >= 1.0:  # after a second to get going
-                errors.append(env.velocity_error())
-    assert torch.stack(errors).mean() <= 0.1
+                errors.append(getattr(env, error)())
+    assert torch.stack(errors).mean() <= bound
 
 
 @pytest.mark.slow

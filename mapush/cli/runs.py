@@ -85,7 +85,8 @@ def evaluate(
     runs = f"{result['episodes']} episodes x seeds {result['seeds']}"
     if "velocity_error" in result:  # the low level
         print(
-            f"velocity error {result['velocity_error']:.3f} m/s | fall rate {100 * result['fall_rate']:.1f} % | {runs}"
+            f"velocity error {result['velocity_error']:.3f} m/s | yaw rate error {result['yaw_rate_error']:.3f} rad/s"
+            f" | fall rate {100 * result['fall_rate']:.1f} % | {runs}"
         )
     else:
         print(

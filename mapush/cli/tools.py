@@ -123,6 +123,8 @@ def calibrate(
     summary = run_calibration(reference, task_list, step_sizes, settle, duration, out_dir, config_path)
     fitted = ", ".join(f"{k} {v:.4g}" for k, v in summary["fitted"].items())
     print(f"fitted {fitted} -> {config_path}")
+    for warning in summary["warnings"]:
+        print(f"warning: {warning}")
     print(out_dir)
 
 

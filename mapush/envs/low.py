@@ -9,7 +9,7 @@ the policy under the pushing levels). The critic also gets the body-frame linear
 cannot measure. Servo gains and the action scale are the go1 backend's (`conf/lowlevel/go1.yaml`).
 
 Commands are drawn per env from `level.commands` at reset and every `resample_s`; a `zero_fraction` of them are
-"stand still". Evaluation draws them from `level.eval_commands`, the range the mid level commands, and pushes with
+"stand still" and a `turn_fraction` "turn on the spot". Evaluation draws them from `level.eval_commands`, the range the mid level commands, and pushes with
 `level.eval_push_velocity` (0 by default: the tracking target is on flat ground, undisturbed).
 
 Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, a random push (a
@@ -35,6 +35,8 @@ from mapush.lowlevel.go1_model import standalone_spec
 from mapush.sim.core import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
+TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")
+"""The tracking errors (methods of `LocomotionEnv`) averaged over each episode and reported by its evaluation."""
 
 def locomotion_model(cfg: dict) -> mujoco.MjModel:
     """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep."""
@@ -91,7 +93,7 @@ class LocomotionEnv(EnvCore):
         self.last_actions = torch.zeros(E, 12)
         self.air_time = torch.zeros(E, 4)
         self.first_contact = torch.zeros(E, 4, dtype=torch.bool)
-        self.velocity_error_sum = torch.zeros(E)
+        self.tracking_error_sums = {name: torch.zeros(E) for name in TRACKING_ERRORS}
         self.state = None  # read at the first reset; the foot speeds need the previous foot positions
         self.drawn_geoms = np.array(drawn_geom_ids(self.model))
         self.reset(np.arange(E))
@@ -135,7 +137,8 @@ class LocomotionEnv(EnvCore):
         self.actions[t] = 0.0
         self.last_actions[t] = 0.0
         self.air_time[t] = 0.0
-        self.velocity_error_sum[t] = 0.0
+        for sums in self.tracking_error_sums.values():
+            sums[t] = 0.0
 
     def _sample_commands(self, n: int) -> torch.Tensor:
         spec = self.command_ranges
@@ -143,7 +146,11 @@ class LocomotionEnv(EnvCore):
         high = torch.tensor([spec["vx"][1], spec["vy"][1], spec["yaw_rate"][1]])
         commands = low + (high - low) * torch.rand(n, 3, generator=self.generator)
         still = torch.rand(n, generator=self.generator) < spec["zero_fraction"]
-        return torch.where(still.unsqueeze(-1), torch.zeros_like(commands), commands)
+        commands = torch.where(still.unsqueeze(-1), torch.zeros_like(commands), commands)
+        if spec.get("turn_fraction", 0.0) > 0:  # runs made before the key have none (and draw nothing more)
+            turning = torch.rand(n, generator=self.generator) < spec["turn_fraction"]
+            commands[turning, :2] = 0.0
+        return commands
 
     def _read_state(self) -> None:
         """Body-frame velocities, gravity direction, torques, foot contacts and speeds (`LocomotionState`)."""
@@ -189,7 +196,8 @@ class LocomotionEnv(EnvCore):
         truncated = (self.episode_step >= self.max_episode_length) & ~self.exception
         self.success = truncated  # a whole episode without a fall
         reward, parts = self.rewards.compute(self)
-        self.velocity_error_sum += self.velocity_error()
+        for name, sums in self.tracking_error_sums.items():
+            sums += getattr(self, name)()
         return self._finish_step(reward, parts, self.exception, truncated, self.commands.unsqueeze(1))
 
     def scene_frame(self) -> dict[str, torch.Tensor]:
@@ -212,6 +220,10 @@ class LocomotionEnv(EnvCore):
     def velocity_error(self) -> torch.Tensor:
         """|commanded - actual| planar velocity, m/s (E,)."""
         return torch.linalg.vector_norm(self.commands[:, :2] - self.state.lin_vel[:, :2], dim=-1)
+
+    def yaw_rate_error(self) -> torch.Tensor:
+        """|commanded - actual| yaw rate, rad/s (E,)."""
+        return (self.commands[:, 2] - self.state.ang_vel[:, 2]).abs()
 
     def _update_air_time(self) -> None:
         """Seconds each foot has been off the ground; `first_contact` marks feet that land this step."""
@@ -258,8 +270,8 @@ class LocomotionEnv(EnvCore):
 
     def _episode_info(self, done: torch.Tensor) -> dict:
         steps = self.episode_step.clamp(min=1).float()
-        end = {**self.episode_end(done, self.exception), "velocity_error": self.velocity_error_sum / steps}
-        return self.outcomes.info(end, self.episode_sums, {"velocity_error": end["velocity_error"]})
+        errors = {name: sums / steps for name, sums in self.tracking_error_sums.items()}
+        return self.outcomes.info({**self.episode_end(done, self.exception), **errors}, self.episode_sums, errors)
 
     @classmethod
     def validate(cls, cfg: dict) -> None:

@@ -18,6 +18,7 @@ import torch
 
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.envs.core import exception_names
+from mapush.envs.low import TRACKING_ERRORS
 from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
@@ -52,7 +53,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     planner_failure = torch.zeros(episodes, dtype=torch.bool)
     kind = torch.full((episodes,), -1)  # the exception that ended each failed episode (`env.exception_names`)
     time_s = torch.zeros(episodes)
-    velocity_error = torch.zeros(episodes)  # the low level: mean |commanded - actual| velocity of each episode
+    tracking = {name: torch.zeros(episodes) for name in TRACKING_ERRORS}  # the low level: each episode's means
     obs = vec.get_observations()
     with torch.inference_mode():
         while not finished.all():
@@ -65,14 +66,16 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
                 planner_failure |= end["planner_failure"] & first
             time_s[first] = end["time_s"][first]
             kind[first] = end["exception_kind"][first].long()
-            if "velocity_error" in end:
-                velocity_error[first] = end["velocity_error"][first]
+            for name, errors in tracking.items():
+                if name in end:
+                    errors[first] = end[name][first]
             finished |= end["done"]
     timeout_s = env.max_episode_length * env.dt
     completion_s = torch.where(success, time_s, torch.full_like(time_s, timeout_s))
     low_level = {}
-    if "velocity_error" in vec.last_info["episode_end"]:
-        low_level = {"velocity_error": velocity_error.mean().item(), "fall_rate": exception.float().mean().item()}
+    if TRACKING_ERRORS[0] in vec.last_info["episode_end"]:
+        low_level = {name: errors.mean().item() for name, errors in tracking.items()}
+        low_level["fall_rate"] = exception.float().mean().item()
     return {
         **low_level,
         "seed": seed,
@@ -186,8 +189,8 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
     walker = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) if lowlevel else None
     if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
-    if "velocity_error" in per_seed[0]:  # the low level (architecture 6): tracking error and falls
-        for key in ("velocity_error", "fall_rate"):
+    if TRACKING_ERRORS[0] in per_seed[0]:  # the low level (architecture 6): tracking errors and falls
+        for key in (*TRACKING_ERRORS, "fall_rate"):
             result[key] = float(np.mean([r[key] for r in per_seed]))
     return result
 
