@@ -294,7 +294,7 @@ def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli
 
 
 def test_a_robot_that_does_not_hold_a_command_is_told_apart_from_a_first_order_lag():
-    from mapush.calibrate import STEADY_MIN, step_commands, steady_fractions
+    from mapush.calibrate import STEADY_MIN, steady_fractions, step_commands
 
     dt, lag = 0.02, 0.2
     t = (np.arange(150) + 1) * dt

@@ -9,8 +9,9 @@ the policy under the pushing levels). The critic also gets the body-frame linear
 cannot measure. Servo gains and the action scale are the go1 backend's (`conf/lowlevel/go1.yaml`).
 
 Commands are drawn per env from `level.commands` at reset and every `resample_s`; a `zero_fraction` of them are
-"stand still" and a `turn_fraction` "turn on the spot". Evaluation draws them from `level.eval_commands`, the range the mid level commands, and pushes with
-`level.eval_push_velocity` (0 by default: the tracking target is on flat ground, undisturbed).
+"stand still" and a `turn_fraction` "turn on the spot". Evaluation draws them from `level.eval_commands`, the range
+the mid level commands, and pushes with `level.eval_push_velocity` (0 by default: the tracking target is on flat
+ground, undisturbed).
 
 Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, a random push (a
 change of the trunk's horizontal velocity) every `push_interval_s`, and optionally a held horizontal force on the
@@ -37,6 +38,7 @@ from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
 TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")
 """The tracking errors (methods of `LocomotionEnv`) averaged over each episode and reported by its evaluation."""
+
 
 def locomotion_model(cfg: dict) -> mujoco.MjModel:
     """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep."""
