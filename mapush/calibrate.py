@@ -35,8 +35,9 @@ FORCE_GRID = np.linspace(5.0, 150.0, 30)
 """Candidate force limits, N: up to beyond the Go1's ground-friction limit (1.0 x 12 kg x 9.81 = 118 N)."""
 PARKED_XY = (9.0, 9.0)
 """Where the object waits during the free experiments, m (the robots start at the origin)."""
-AXES = ("vx", "vy", "yaw_rate")
 LAG_OF_AXIS = {"vx": "lag", "vy": "lag", "yaw_rate": "yaw_lag"}
+"""The command axes, in order, and the tracker key whose lag each one's free response fits."""
+AXES = tuple(LAG_OF_AXIS)
 STEADY_MIN = 0.8
 """A robot that holds less than this share of a step command over its last 0.5 s does not follow a first-order lag:
 the calibration says so (`warnings`) instead of trusting the fitted lag."""

@@ -66,8 +66,8 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
                 planner_failure |= end["planner_failure"] & first
             time_s[first] = end["time_s"][first]
             kind[first] = end["exception_kind"][first].long()
-            for name, errors in tracking.items():
-                if name in end:
+            if TRACKING_ERRORS[0] in end:  # the low level
+                for name, errors in tracking.items():
                     errors[first] = end[name][first]
             finished |= end["done"]
     timeout_s = env.max_episode_length * env.dt
