@@ -58,6 +58,23 @@ def test_tail_gain_is_the_success_added_over_the_last_fifth():
     assert tail_gain(points[:1], 0.2) is None
 
 
+
+def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curve():
+    from mapush.report.plots import budget_verdict
+
+    def result(rates):
+        points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
+        return {"curve": {"rule": RULE, "points": points}}
+
+    # last fifth: 0.80 -> 0.70 and 0.90 -> 0.86: -7.0 +- 3.0 points; mean curve 0.65, 0.9, 0.85, 0.85, 0.78
+    falling = [result([0.6, 0.9, 0.8, 0.8, 0.7]), result([0.7, 0.9, 0.9, 0.9, 0.86])]
+    assert budget_verdict("Ours", falling) == (
+        "Ours: the last 20 % of the budget added -7.0 \u00b1 3.0 points over 2 seeds (rule: < 3): "
+        "flattened, then falling: the mean curve peaked at 90.0 % after 2.0M env-steps"
+    )
+    # a loss smaller than the rule's 3 points is flat, not falling
+    assert budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])]).endswith("(rule: < 3): flattened")
+
 def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr

@@ -42,7 +42,8 @@ def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
 
 def budget_verdict(label: str, results: list[dict]) -> str | None:
     """Whether the budget of `results` has flattened by their experiment's rule (the success gained over the
-    last `tail` of the env-steps, mean over seeds, below `max_gain`); None without curves."""
+    last `tail` of the env-steps, mean over seeds, below `max_gain`), and where the mean curve peaked when that
+    tail lost `max_gain` or more (a budget past the peak is no better than a shorter one); None without curves."""
     curves = [r["curve"] for r in results if r.get("curve") and r["curve"]["points"]]
     if not curves:
         return None
@@ -50,12 +51,22 @@ def budget_verdict(label: str, results: list[dict]) -> str | None:
     gains = [g for g in (tail_gain(c["points"], float(rule["tail"])) for c in curves) if g is not None]
     if not gains:
         return f"{label}: too few checkpoints to judge the budget"
-    mean, std = 100 * np.mean(gains), 100 * np.std(gains)
-    verdict = "flattened" if mean < 100 * float(rule["max_gain"]) else "NOT flattened: still learning"
+    mean, std, limit = 100 * np.mean(gains), 100 * np.std(gains), 100 * float(rule["max_gain"])
+    if mean >= limit:
+        verdict = "NOT flattened: still learning"
+    elif mean > -limit:
+        verdict = "flattened"
+    else:  # lost as much as the rule lets a flat curve gain: the budget runs past the curve's peak
+        x, rates, _ = mean_curve(seed_curves(results))
+        peak = int(np.argmax(rates))
+        verdict = (
+            f"flattened, then falling: the mean curve peaked at {100 * rates[peak]:.1f} % "
+            f"after {x[peak] / 1e6:.1f}M env-steps"
+        )
     seeds = f"{len(gains)} seed" + ("s" if len(gains) != 1 else "")
     return (
         f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
-        f"points over {seeds} (rule: < {100 * float(rule['max_gain']):.0f}): {verdict}"
+        f"points over {seeds} (rule: < {limit:.0f}): {verdict}"
     )
 
 
