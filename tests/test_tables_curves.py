@@ -58,7 +58,6 @@ def test_tail_gain_is_the_success_added_over_the_last_fifth():
     assert tail_gain(points[:1], 0.2) is None
 
 
-
 def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curve():
     from mapush.report.plots import budget_verdict
 
@@ -74,6 +73,7 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
     )
     # a loss smaller than the rule's 3 points is flat, not falling
     assert budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])]).endswith("(rule: < 3): flattened")
+
 
 def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out")
