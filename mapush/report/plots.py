@@ -83,12 +83,15 @@ def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    labels = list(dict.fromkeys(label for lines in drawn.values() for label in lines))
+    color = {label: f"C{k % 10}" for k, label in enumerate(labels)}  # one colour per label in every panel
     fig, axes = plt.subplots(1, len(drawn), figsize=(4.6 * len(drawn), 3.4), squeeze=False, sharey=True)
     for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
         for label, per_seed in lines.items():
             x, mean, std = mean_curve(per_seed)
-            ax.plot(x / 1e6, 100 * mean, marker="o", ms=3, label=f"{label} ({len(per_seed)} seeds)")
-            ax.fill_between(x / 1e6, 100 * (mean - std), 100 * (mean + std), alpha=0.2)
+            line_label = f"{label} ({len(per_seed)} seeds)"
+            ax.plot(x / 1e6, 100 * mean, marker="o", ms=3, color=color[label], label=line_label)
+            ax.fill_between(x / 1e6, 100 * (mean - std), 100 * (mean + std), color=color[label], alpha=0.2)
         ax.set_title(panel)
         ax.set_xlabel("env-steps (M)")
         ax.grid(alpha=0.3)
