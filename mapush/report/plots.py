@@ -57,7 +57,7 @@ def budget_verdict(label: str, results: list[dict]) -> str | None:
     elif mean > -limit:
         verdict = "flattened"
     else:  # lost as much as the rule lets a flat curve gain: the budget runs past the curve's peak
-        x, rates, _ = mean_curve(seed_curves(results))
+        x, rates, _ = mean_curve([c["points"] for c in curves])
         peak = int(np.argmax(rates))
         verdict = (
             f"flattened, then falling: the mean curve peaked at {100 * rates[peak]:.1f} % "
