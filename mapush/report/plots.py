@@ -85,7 +85,9 @@ def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str
 
     labels = list(dict.fromkeys(label for lines in drawn.values() for label in lines))
     color = {label: f"C{k % 10}" for k, label in enumerate(labels)}  # one colour per label in every panel
-    fig, axes = plt.subplots(1, len(drawn), figsize=(4.6 * len(drawn), 3.4), squeeze=False, sharey=True)
+    rows = -(-max(len(lines) for lines in drawn.values()) // 2)  # legend rows under each panel, 2 entries per row
+    height = 3.4 + 0.22 * rows
+    fig, axes = plt.subplots(1, len(drawn), figsize=(4.6 * len(drawn), height), squeeze=False, sharey=True)
     for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
         for label, per_seed in lines.items():
             x, mean, std = mean_curve(per_seed)
@@ -95,7 +97,7 @@ def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str
         ax.set_title(panel)
         ax.set_xlabel("env-steps (M)")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False)  # off the curves
     axes[0][0].set_ylabel("evaluated success (%)")
     fig.suptitle(title)
     fig.tight_layout()
