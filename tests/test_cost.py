@@ -10,7 +10,7 @@ import pytest
 from stand_ins import stage_run
 
 from mapush.experiments.stages import stage_core_seconds
-from mapush.report.cost import cost_line, measured_cost
+from mapush.report.cost import cost_by, cost_line, measured_cost
 from mapush.report.formats import Table, markdown, sidecar
 
 
@@ -76,6 +76,21 @@ def test_the_cost_line_stands_under_the_table_and_in_its_sidecar(two_jobs):
     assert line in markdown(table).splitlines()
     assert sidecar(table)["cost"] == cost
     assert cost_line(measured_cost([], cores=2)) == ""
+
+
+def test_each_method_is_charged_what_it_added_and_the_parts_add_up_to_the_whole(two_jobs, tmp_path):
+    ours = [{**r, "method_label": "Ours"} for r in two_jobs]  # 3.5 + 1.5 core-h: 2.5 h of 2 cores, as above
+    c = stage_run(tmp_path, "c", 1, [{0: (3000.0, 600.0)}])  # 1 core-h
+    # a baseline reusing Ours' stage a (charged to Ours, the first to use it), training c, evaluating 1 core-h
+    baseline = {"stages": {"mid": two_jobs[0]["stages"]["mid"], "high": str(c)}, "method_label": "SA"}
+    baseline |= {"eval_wall_s": 3600.0, "threads": 1, "finished": "2026-01-01T14:00:00"}
+    assert cost_by([*ours, baseline], "method_label", cores=2) == {"Ours": 2.5, "SA": 1.0}
+    cost = measured_cost([*ours, baseline], cores=2) | {"by_method": {"Ours": 2.5, "SA": 1.0}}
+    assert cost["machine_h"] == 3.5
+    assert cost_line(cost).endswith(
+        "3.5 hours of a 2-core machine with every core busy; by method, in hours of that machine: Ours 2.5, SA 1.0"
+    )
+    assert "by method" not in cost_line(cost | {"by_method": {"Ours": 3.5}})  # one method: nothing to split
 
 
 def test_stage_runs_are_found_under_the_sweep_root_or_counted_as_unreadable(two_jobs, tmp_path):

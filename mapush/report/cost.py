@@ -83,6 +83,21 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     }
 
 
+def cost_by(results: list[dict], key: str, cores: int) -> dict[str, float]:
+    """Hours of the `cores`-core machine that each group of `results` (by `r[key]`, in first-seen order) added to
+    the whole: the cost of the groups so far less that of the groups before, so a stage that two groups share
+    counts in the first and the parts add up to the whole."""
+    parts: dict[str, float] = {}
+    so_far: list[dict] = []
+    before = 0.0
+    for group in dict.fromkeys(r.get(key) for r in results):
+        so_far += [r for r in results if r.get(key) == group]
+        total = measured_cost(so_far, cores)["machine_h"]
+        parts[str(group)] = round(total - before, 2)
+        before = total
+    return parts
+
+
 def _recorded_stage_seconds(results: list[dict]) -> dict[Path, float]:
     """Stage run -> the core-seconds a job recorded for it when it finished (`stage_core_s`): the cost of a stage
     whose run is gone, as for the archived results of `mapush archive`."""
@@ -139,9 +154,12 @@ def cost_line(cost: dict) -> str:
     if cost["unreadable_stages"]:
         notes.append(f"{cost['unreadable_stages']} stage runs not found or unreadable, left out")
     extra = f" ({'; '.join(notes)})" if notes else ""
+    parts = cost.get("by_method") or {}
+    by_method = ", ".join(f"{label} {hours:.1f}" for label, hours in parts.items())
     return (
         f"Cost, measured from the runs (each stage once, each of its iterations once): training "
         f"{cost['training_core_h']:.1f} core-hours over {cost['stages']} distinct stages, evaluation "
         f"{cost['evaluation_core_h']:.1f} core-hours over {cost['jobs']} jobs{extra}: {cost['machine_h']:.1f} "
         f"hours of a {cost['cores']}-core machine with every core busy"
+        + (f"; by method, in hours of that machine: {by_method}" if len(parts) > 1 else "")
     )

@@ -16,7 +16,7 @@ import yaml
 
 from mapush.experiments.archive import load_results
 from mapush.report import plots
-from mapush.report.cost import measured_cost
+from mapush.report.cost import cost_by, measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
@@ -311,7 +311,9 @@ def write_tables(
             if earlier > filled_cells(table) and not overwrite:
                 kept.append((table, earlier))
                 continue
-            table.cost = measured_cost([r for r in results if r["table"] == kind and r["variant"] == variant])
+            behind = [r for r in results if r["table"] == kind and r["variant"] == variant]
+            table.cost = measured_cost(behind)
+            table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
             (out / f"{table.name}.md").write_text(markdown(table))
             (out / f"{table.name}.tex").write_text(latex(table))
             (out / f"{table.name}.csv").write_text(csv_text(table))
