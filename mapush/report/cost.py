@@ -15,9 +15,11 @@ experiment changed (`rerun_changed`) counts its earlier result too (`result.supe
 from __future__ import annotations
 
 import datetime
+import functools
 import json
 import os
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
 from mapush.errors import BadInput
@@ -26,10 +28,13 @@ from mapush.experiments.stages import run_threads, stage_core_seconds, stage_pat
 from mapush.rl.runner import POLICY_FILE
 
 
-def measured_cost(results: list[dict], cores: int | None = None) -> dict:
+def measured_cost(
+    results: list[dict], cores: int | None = None, stage_seconds: Callable[[Path], float] = stage_core_seconds
+) -> dict:
     """The cost of the jobs' `results`: training over their distinct stages, evaluation over the jobs, and the
     hours of a `cores`-core machine (default: the one the jobs record, else this one) with every core busy.
-    Stages or jobs whose runs cannot be read are left out and counted."""
+    Stages or jobs whose runs cannot be read are left out and counted. `stage_seconds` reads a stage run's
+    training core-seconds (a cached reader when one caller measures the same stages again)."""
     results = [r for r in results if r.get("stages")]  # hand-made results may name none
     jobs_now = len(results)
     results += [earlier for r in results if (earlier := _superseded(r))]  # what a job spent before it ran again
@@ -40,7 +45,7 @@ def measured_cost(results: list[dict], cores: int | None = None) -> dict:
     training, unreadable, from_records = 0.0, 0, 0
     for copies in groups.values():
         try:  # a copy holds its original's iterations and, if it resumed, more: the largest is the stage's cost
-            training += max(stage_core_seconds(path) for path in copies)
+            training += max(stage_seconds(path) for path in copies)
         except (BadInput, OSError):  # missing (an archived job's), or a slim copy without its logs
             known = [recorded[path] for path in copies if path in recorded]
             if known:
@@ -87,12 +92,13 @@ def cost_by(results: list[dict], key: str, cores: int) -> dict[str, float]:
     """Hours of the `cores`-core machine that each group of `results` (by `r[key]`, in first-seen order) added to
     the whole: the cost of the groups so far less that of the groups before, so a stage that two groups share
     counts in the first and the parts add up to the whole."""
+    stage_seconds = functools.cache(stage_core_seconds)  # each prefix re-measures the stages before it
     parts: dict[str, float] = {}
     so_far: list[dict] = []
     before = 0.0
     for group in dict.fromkeys(r.get(key) for r in results):
         so_far += [r for r in results if r.get(key) == group]
-        total = measured_cost(so_far, cores)["machine_h"]
+        total = measured_cost(so_far, cores, stage_seconds)["machine_h"]
         parts[str(group)] = round(total - before, 2)
         before = total
     return parts
