@@ -7,10 +7,11 @@ import json
 from pathlib import Path
 
 import pytest
+from omegaconf import OmegaConf
 
 from mapush.config import compose_config
 from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
-from mapush.experiments.stages import identity_of
+from mapush.experiments.stages import compose_stage, identity_of
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
@@ -231,3 +232,35 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert result_changes(fourth, legged, planned_stages(legged)) == (
         "evaluation 't40' walked its robots with another locomotion policy than now"
     )
+
+
+def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_shape(cli, tmp_path):
+    root, archive = tmp_path / "sweeps", tmp_path / "archive"
+    # SA's cylinder mid level of seed 1 finished on another machine in 3600 core-seconds (32 env-steps at the smoke
+    # budget) and was archived with its stage.yaml; its high level left no time
+    other = _job_cfg(root, "seed=1")
+    mid, high = planned_stages(other)
+    job = archive / "elsewhere_smoke" / "method=sa,seed=1,task=cylinder"
+    job.mkdir(parents=True)
+    runs = {
+        name: str(root / "stages" / s.identity / name / "cylinder" / "run")
+        for name, s in (("mid", mid), ("high", high))
+    }
+    (job / RESULT).write_text(json.dumps({"stages": runs, "stage_core_s": {"mid": 3600.0}, "evals": {}}))
+    config = compose_stage(mid.overrides, lambda cfg: mid.iterations)
+    record = archive / "stages" / mid.identity / "stage.yaml"
+    record.parent.mkdir(parents=True)
+    record.write_text(OmegaConf.to_yaml({"identity": mid.identity, "config": config}))
+
+    args = ["sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder", *SMOKE, f"sweep_root={root}"]
+    plan = cli(*args, f"archive={archive}")
+    assert plan.returncode == 0, plan.stderr
+    # seed 0's mid level has seed 1's shape: 3600 core-seconds for as many env-steps; its high level has no like
+    rows = [line for line in plan.stdout.splitlines() if "method=sa,seed=0" in line]
+    assert rows[0].split()[1] == "mid" and rows[0].endswith("~1.00 core-h")
+    assert rows[1].split()[1] == "high" and rows[1].endswith("no measured stage like it")
+    assert "1.0 core-hours for 1 of the 2 stages to train (1 not estimated: no measured stage like them)" in plan.stdout
+    # twice the env-steps, twice the time
+    longer = cli(*args, f"archive={archive}", "experiment.budgets.smoke.stages.mid.env_steps=64")
+    assert "~2.00 core-h" in longer.stdout
+    assert "training time: not estimated" in cli(*args, "archive=null").stdout

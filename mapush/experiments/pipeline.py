@@ -102,8 +102,8 @@ def variant(cfg: DictConfig) -> str:
 
 
 class PlannedStage(NamedTuple):
-    """A stage of a job as it will be trained: its overrides, budget in iterations and env-steps, identity, and
-    the iterations between its checkpoints."""
+    """A stage of a job as it will be trained: its overrides, budget in iterations and env-steps, identity, the
+    iterations between its checkpoints, and its `stages.shape` (what its time per env-step depends on)."""
 
     name: str
     overrides: list[str]
@@ -111,6 +111,7 @@ class PlannedStage(NamedTuple):
     env_steps: int
     identity: str
     save_interval: int
+    shape: tuple
 
 
 def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
@@ -129,9 +130,9 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
             # (model_<k>.pt holds k + 1 iterations: one fewer than fit between two marks keeps each before its mark)
             fit = int(float(budget.curve.every_env_steps) // per_iteration)
             save_interval = min(save_interval, max(1, fit - 1))
-        planned.append(
-            PlannedStage(name, overrides, iterations, iterations * per_iteration, identities[name], save_interval)
-        )
+        env_steps = iterations * per_iteration
+        kind = stages.shape(stage_cfg)
+        planned.append(PlannedStage(name, overrides, iterations, env_steps, identities[name], save_interval, kind))
     return planned
 
 

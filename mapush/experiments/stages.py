@@ -24,7 +24,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config, load_run_config, to_plain
 from mapush.logging.mcap_files import training_scalars
-from mapush.rl.runner import POLICY_FILE
+from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import checkpoint_iteration, checkpoints, find_runs
 
 STORE = "stages"
@@ -119,15 +119,55 @@ def stands_for(sweep_root: Path, key: str) -> list[str]:
     return found
 
 
-def status(directory: Path, iterations: int) -> str:
-    """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
+def trained_iterations(directory: Path) -> int | None:
+    """Iterations the stage in `directory` has trained so far (its newest checkpoint); None once it is finished."""
     for run_dir in find_runs(Path(directory)):
         if (run_dir / POLICY_FILE).is_file():
-            return "finished"
+            return None
         found = checkpoints(run_dir)
         if found:
-            return f"resume from {checkpoint_iteration(found[-1]) + 1}/{iterations}"
-    return "new"
+            return checkpoint_iteration(found[-1]) + 1
+    return 0
+
+
+def status(directory: Path, iterations: int) -> str:
+    """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
+    return status_of(trained_iterations(directory), iterations)
+
+
+def status_of(done: int | None, iterations: int) -> str:
+    """`status` of a stage that has trained `done` of its `iterations` (None: finished)."""
+    return "finished" if done is None else f"resume from {done}/{iterations}" if done else "new"
+
+
+def shape(cfg: dict) -> tuple:
+    """What a stage's training time per env-step depends on: level, object, robots, envs and low level (not the
+    seed, a reward weight or the budget). Stages of one shape cost alike per env-step (`cost_per_env_step`)."""
+    return (cfg["level"]["name"], cfg["task"]["name"], int(cfg["task"]["num_agents"]), int(cfg["num_envs"]),
+            cfg["lowlevel"]["name"])  # fmt: skip
+
+
+def cost_per_env_step(results: list[dict], roots: list[Path]) -> dict[tuple, float]:
+    """Measured training core-seconds per env-step of each stage `shape`, pooled over the distinct stages behind
+    `results` (their `stage_core_s`) whose `stage.yaml` lies in the store of one of the `roots` (sweep roots or
+    archives): what `mapush sweep --dry-run` estimates the stages it will train from."""
+    seconds: dict[tuple, float] = {}
+    steps: dict[tuple, float] = {}
+    seen: set[str] = set()
+    for result in results:
+        for name, path in result.get("stages", {}).items():
+            key, core_s = identity_of(Path(path)), result.get("stage_core_s", {}).get(name)
+            records = [stage_dir(root, key) / IDENTITY_FILE for root in roots] if key else []
+            record = next((r for r in records if r.is_file()), None)
+            config = OmegaConf.select(OmegaConf.load(record), "config") if record else None
+            if core_s is None or config is None or key in seen:
+                continue
+            seen.add(key)
+            cfg = OmegaConf.to_container(config)
+            kind = shape(cfg)
+            seconds[kind] = seconds.get(kind, 0.0) + float(core_s)
+            steps[kind] = steps.get(kind, 0.0) + int(cfg["train"]["iterations"]) * env_steps_per_iteration(cfg)
+    return {kind: seconds[kind] / steps[kind] for kind in seconds if steps[kind]}
 
 
 def write_identity(directory: Path, cfg: dict, key: str) -> None:

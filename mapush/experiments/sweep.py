@@ -24,6 +24,7 @@ from mapush.config import CONF_DIR, compose_config, group_options, to_plain
 from mapush.errors import BadInput
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
+from mapush.experiments.archive import load_results
 from mapush.experiments.pipeline import (
     RESULT,
     archived_result,
@@ -197,6 +198,8 @@ def dry_run(overrides: list[str]) -> list[dict]:
     hydra_cfg = compose_config(combos[0], config_name="sweep", hydra=True).hydra
     unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
     rows, seen, changed, finished = [], set(), [], 0
+    roots = [Path(p) for p in (combos and _roots(compose_config(combos[0], config_name="sweep")))]
+    rates = stages.cost_per_env_step(load_results(roots), roots)
     for combo in combos:
         cfg = compose_config(combo, config_name="sweep")
         job = ",".join(sorted(o for o in combo if o.partition("=")[0] not in unnamed))  # Hydra's override_dirname
@@ -214,16 +217,21 @@ def dry_run(overrides: list[str]) -> list[dict]:
             if not cfg.rerun_changed:
                 continue
         for stage in planned:
-            state = stages.status(stages.stage_dir(Path(cfg.sweep_root), stage.identity), stage.iterations)
+            done = stages.trained_iterations(stages.stage_dir(Path(cfg.sweep_root), stage.identity))
+            state = stages.status_of(done, stage.iterations)
             action = "share" if stage.identity in seen else {"finished": "reuse", "new": "train"}.get(state, state)
+            left = 0.0 if done is None or action == "share" else stage.env_steps * (1 - done / stage.iterations)
+            rate = rates.get(stage.shape)
             seen.add(stage.identity)
             rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action,
-                         "env_steps": stage.env_steps})  # fmt: skip
+                         "env_steps": stage.env_steps, "core_s": None if rate is None else rate * left})  # fmt: skip
     to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith("resume")]
     print(f"sweep {hydra_cfg.sweep.dir}: {len(combos)} jobs, {finished} finished; {len(rows)} stages to run; "
           f"{len(to_train)} to train ({sum(r['env_steps'] for r in to_train) / 1e6:.1f}M env-steps), "
           f"{sum(r['action'] == 'reuse' for r in rows)} finished to reuse, "
           f"{sum(r['action'] == 'share' for r in rows)} shared between jobs")  # fmt: skip
+    if to_train:
+        print(_estimate_line(to_train))
     if changed:
         print(
             f"{len(changed)} finished jobs were made by other stages or evaluations than planned now; "
@@ -233,9 +241,31 @@ def dry_run(overrides: list[str]) -> list[dict]:
             print(f"  {line}")
     width = max((len(r["job"]) for r in rows), default=0)
     for r in rows:
+        hours = "" if r["action"] in ("reuse", "share") else "  no measured stage like it" if r["core_s"] is None \
+            else f"  ~{r['core_s'] / 3600:.2f} core-h"  # fmt: skip
         print(f"  {r['job']:{width}s}  {r['stage']:5s} {r['identity']}  {r['action']:18s} "
-              f"{r['env_steps'] / 1e6:8.2f}M env-steps")  # fmt: skip
+              f"{r['env_steps'] / 1e6:8.2f}M env-steps{hours}")  # fmt: skip
     return rows
+
+
+def _roots(cfg: DictConfig) -> list[str]:
+    """The sweep root and the archive (where each is set): where finished stages and their times are found."""
+    return [str(cfg.sweep_root), *([str(cfg.archive)] if cfg.get("archive") else [])]
+
+
+def _estimate_line(to_train: list[dict]) -> str:
+    """The training time the dry run expects: measured core-seconds per env-step of finished stages of the same
+    `stages.shape`, times the env-steps each stage has left."""
+    known = [r["core_s"] for r in to_train if r["core_s"] is not None]
+    like = "of the same level, object, robots, envs and low level"
+    if not known:
+        return f"  training time: not estimated (no finished stage {like} has a measured time)"
+    unknown = len(to_train) - len(known)
+    return (
+        f"  training time, estimated from finished stages {like}: {sum(known) / 3600:.1f} core-hours for "
+        f"{len(known)} of the {len(to_train)} stages to train"
+        + (f" ({unknown} not estimated: no measured stage like them)" if unknown else "")
+    )
 
 
 def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:
