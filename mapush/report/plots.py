@@ -4,6 +4,7 @@ rate, and whether a budget has flattened."""
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -86,7 +87,8 @@ def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str
     labels = list(dict.fromkeys(label for lines in drawn.values() for label in lines))
     color = {label: f"C{k % 10}" for k, label in enumerate(labels)}  # one colour per label in every panel
     rows = -(-max(len(lines) for lines in drawn.values()) // 2)  # legend rows under each panel, 2 entries per row
-    height = 3.4 + 0.22 * rows
+    title = textwrap.fill(title, 48 * len(drawn))  # about 48 characters of the title fit above a 4.6-inch panel
+    height = 3.4 + 0.22 * rows + 0.25 * title.count("\n")
     fig, axes = plt.subplots(1, len(drawn), figsize=(4.6 * len(drawn), height), squeeze=False, sharey=True)
     for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
         for label, per_seed in lines.items():
