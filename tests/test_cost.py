@@ -56,6 +56,8 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
         "evaluation_jobs_from_file_times": 1,
         "cores": 2,
         "machine_h": 2.5,
+        "superseded": 0,
+        "superseded_machine_h": 0.0,
     }
 
 
@@ -122,6 +124,25 @@ def test_a_job_that_ran_again_counts_the_evaluations_of_its_earlier_result_too(t
     assert (cost["stages"], cost["jobs"], cost["evaluated_again"], cost["evaluation_core_h"]) == (2, 1, 1, 0.23)
     assert "1 jobs evaluated again after their experiment changed: both counted" in cost_line(cost)
     assert measured_cost([{k: v for k, v in again.items() if k != "supersedes"}], cores=2)["evaluation_core_h"] == 0.07
+
+
+def test_an_earlier_result_of_other_stages_is_given_apart_not_counted(two_jobs, tmp_path):
+    import json
+
+    # the job ran again after its high level's budget changed: its earlier result was made of another high stage
+    # (old, 7200 s on 1 thread) and evaluated for 600 s on 2 threads
+    old = stage_run(tmp_path, "old_high", 1, [{0: (3600.0, 3600.0)}])
+    job = tmp_path / "job"
+    job.mkdir()
+    earlier = {**two_jobs[1], "stages": {**two_jobs[1]["stages"], "high": str(old)}, "eval_wall_s": 600.0}
+    (job / "result.superseded.json").write_text(json.dumps(earlier))
+    again = {**two_jobs[1], "supersedes": "result.superseded.json", "job_dir": str(job)}
+    cost = measured_cost([again], cores=2)
+    # what stands: a (5400 s) and b (7200 core-s) trained, 900 s x 2 threads evaluated = 14400 core-s = 2.0 h of 2
+    # cores; apart: the old high level 7200 core-s and its evaluation 1200 core-s = 8400 core-s = 1.17 h
+    assert (cost["stages"], cost["jobs"], cost["machine_h"]) == (2, 1, 2.0)
+    assert (cost["evaluated_again"], cost["superseded"], cost["superseded_machine_h"]) == (0, 1, 1.17)
+    assert "not counted: 1.2 hours more on 1 earlier results" in cost_line(cost)
 
 
 def test_a_stage_adopted_into_a_new_identity_is_trained_once(tmp_path):

@@ -9,7 +9,8 @@ MuJoCo threads. Evaluation time is what a job spent after training (its evaluati
 `eval_wall_s` in `result.json`) times the job's threads. Jobs that finished before the pipeline recorded it get it
 from file times (the evaluated stage's exported policy to the job's `finished`), but only the first job to
 evaluate a stage: a later one that reused it left no trace of its own time. A job that ran again after its
-experiment changed (`rerun_changed`) counts its earlier result too (`result.superseded.json`): that time was spent.
+experiment changed (`rerun_changed`) counts its earlier result too when only its evaluations changed; an earlier
+result of other stages (another recipe) is reported apart: a table's cost is what its results cost.
 """
 
 from __future__ import annotations
@@ -34,10 +35,41 @@ def measured_cost(
     """The cost of the jobs' `results`: training over their distinct stages, evaluation over the jobs, and the
     hours of a `cores`-core machine (default: the one the jobs record, else this one) with every core busy.
     Stages or jobs whose runs cannot be read are left out and counted. `stage_seconds` reads a stage run's
-    training core-seconds (a cached reader when one caller measures the same stages again)."""
+    training core-seconds (a cached reader when one caller measures the same stages again).
+
+    A job that ran again after its experiment changed left its earlier result (`result.superseded.json`). Made
+    of the same evaluated stage (only evaluations changed), it counts too: the evaluations the job kept came
+    from it. Made of other stages (a recipe changed), it is history, not what the results cost: what it added
+    is given apart (`superseded`, `superseded_machine_h`)."""
     results = [r for r in results if r.get("stages")]  # hand-made results may name none
+    pairs = [(r, e) for r in results if (e := _superseded(r))]
+    again = [e for r, e in pairs if _evaluated(e) == _evaluated(r)]
+    replaced = [e for r, e in pairs if _evaluated(e) != _evaluated(r)]
+    cost = _cost_of(results, again, stage_seconds)
+    recorded = Counter(int(r["machine_cores"]) for r in results if r.get("machine_cores"))
+    cores = cores or (recorded.most_common(1)[0][0] if recorded else os.cpu_count() or 1)
+    seconds = cost.pop("seconds")
+    before = _cost_of(results, again + replaced, stage_seconds)["seconds"] - seconds if replaced else 0.0
+    return {
+        **cost,
+        "evaluated_again": len(again),
+        "cores": cores,
+        "machine_h": round(seconds / 3600 / cores, 2),
+        "superseded": len(replaced),
+        "superseded_machine_h": round(before / 3600 / cores, 2),
+    }
+
+
+def _evaluated(result: dict) -> Path:
+    """The run dir of the stage a job evaluated (its last)."""
+    return stage_paths(result)[-1].resolve()
+
+
+def _cost_of(results: list[dict], earlier: list[dict], stage_seconds: Callable[[Path], float]) -> dict:
+    """`measured_cost` of the jobs' `results` and of `earlier` results of theirs (counted, but not as jobs), in
+    core-hours and in core-seconds (`seconds`)."""
     jobs_now = len(results)
-    results += [earlier for r in results if (earlier := _superseded(r))]  # what a job spent before it ran again
+    results = results + earlier
     groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (tools/rekey_stages.py) train once
     for path in {path.resolve() for r in results for path in stage_paths(r)}:
         groups.setdefault(_original_stage(path), []).append(path)
@@ -68,23 +100,19 @@ def measured_cost(
             else:
                 unknown += 1
                 continue
-            jobs += k < jobs_now  # an earlier result of a job evaluated again adds its time, not a job
+            jobs += k < jobs_now  # an earlier result of a job adds its time, not a job
         except (BadInput, OSError, KeyError, ValueError):
             unknown += k < jobs_now
-    recorded = Counter(int(r["machine_cores"]) for r in results if r.get("machine_cores"))
-    cores = cores or (recorded.most_common(1)[0][0] if recorded else os.cpu_count() or 1)
     return {
         "stages": len(groups) - unreadable,
         "unreadable_stages": unreadable,
         "stages_from_records": from_records,
         "jobs": jobs,
-        "evaluated_again": len(results) - jobs_now,
         "jobs_without_evaluation_time": unknown,
         "training_core_h": round(training / 3600, 2),
         "evaluation_core_h": round(evaluation / 3600, 2),
         "evaluation_jobs_from_file_times": from_file_times,
-        "cores": cores,
-        "machine_h": round((training + evaluation) / 3600 / cores, 2),
+        "seconds": training + evaluation,
     }
 
 
@@ -155,6 +183,9 @@ def cost_line(cost: dict) -> str:
         notes.append(f"{cost['jobs_without_evaluation_time']} jobs without a recorded evaluation time left out")
     if cost.get("evaluated_again"):
         notes.append(f"{cost['evaluated_again']} jobs evaluated again after their experiment changed: both counted")
+    if cost.get("superseded"):
+        notes.append(f"not counted: {cost['superseded_machine_h']:.1f} hours more on {cost['superseded']} earlier "
+                     "results that jobs replaced when their experiment changed")  # fmt: skip
     if cost.get("stages_from_records"):
         notes.append(f"{cost['stages_from_records']} stages' training time as their jobs recorded it (runs archived)")
     if cost["unreadable_stages"]:
