@@ -198,7 +198,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
     hydra_cfg = compose_config(combos[0], config_name="sweep", hydra=True).hydra
     unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
     rows, seen, changed, finished = [], set(), [], 0
-    roots = [Path(p) for p in (combos and _roots(compose_config(combos[0], config_name="sweep")))]
+    roots = _roots(compose_config(combos[0], config_name="sweep"))
     rates = stages.cost_per_env_step(load_results(roots), roots)
     for combo in combos:
         cfg = compose_config(combo, config_name="sweep")
@@ -248,9 +248,9 @@ def dry_run(overrides: list[str]) -> list[dict]:
     return rows
 
 
-def _roots(cfg: DictConfig) -> list[str]:
-    """The sweep root and the archive (where each is set): where finished stages and their times are found."""
-    return [str(cfg.sweep_root), *([str(cfg.archive)] if cfg.get("archive") else [])]
+def _roots(cfg: DictConfig) -> list[Path]:
+    """The sweep root and the archive (where one is set): where finished stages and their times are found."""
+    return [Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])]
 
 
 def _estimate_line(to_train: list[dict]) -> str:
