@@ -238,7 +238,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
     assert "main_quick.{md,tex,csv,json}: 6/48 cells filled" in proc.stdout
-    assert "scale_quick.{md,tex,csv,json}: 5/12 cells filled" in proc.stdout
+    assert "scale_quick.{md,tex,csv,json}: 5/15 cells filled" in proc.stdout  # 1, 2, 3, 4 and 6 robots x 3
 
     md = (out / "main_quick.md").read_text()
     # ours, cuboid: S.R. 80 % and 70 % -> 75.0 +- 5.0; C.T. 0.60 and 0.70 -> 0.65 +- 0.05; paper 77.5 +- 3.0, 0.66
@@ -282,12 +282,14 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     # 3 robots: hierarchy 60 and 80 % -> 70.0 +- 10.0, C.T. 0.45 +- 0.05; mid level 70 and 74 % -> 72.0 +- 2.0
     assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 | 72.0 \u00b1 2.0 |" in scale
     assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) | \u2014 |" in scale
-    assert "- Best robot count here: 3 (70.0 \u00b1 10.0 % S.R.)" in scale
+    assert "- Best robot count of those finished (1, 3) here: 3 (70.0 \u00b1 10.0 % S.R.)" in scale
     assert (
         "- Mid level with 3 robots: 72.0 \u00b1 2.0 % S.R. over 2 seeds; the original's best stored cylinder mid "
         "level reached 72.3 %: below it, within the seeds' spread"
     ) in scale
     assert "- 2 robots: no finished job" in scale
+    assert "| 6 | \u2014 | \u2014 | \u2014 |" in scale and "- 6 robots: no finished job" in scale  # planned, not run
+    assert "- 1 robot / mid level: no evaluation of the mid level alone" in scale
     assert (out / "scale_quick.png").stat().st_size > 1000
 
 

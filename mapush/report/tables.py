@@ -14,12 +14,15 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mapush.config import CONF_DIR
 from mapush.experiments.archive import load_results
 from mapush.report import plots
 from mapush.report.cost import cost_by, measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
+SCALE_ROBOTS = yaml.safe_load((CONF_DIR / "experiment" / "scale.yaml").read_text())["sweep"]["agents"]
+"""The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
 
 
 EXTRA_OURS = {"path_only": "Ours, path only", "go1": "Ours, legged"}
@@ -219,11 +222,15 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
     return findings
 
 
+def _robots(n: int) -> str:
+    return f"{n} robot" + ("s" if n != 1 else "")
+
+
 def scale_table(results: list[dict], variant: str) -> Table:
-    """Scalability: rows the robot counts (the paper's and any run), columns the hierarchy's S.R. and C.T. and the
-    mid level's own S.R. (the paper: a figure)."""
+    """Scalability: rows the robot counts (the paper's, the study's and any run), columns the hierarchy's S.R. and
+    C.T. and the mid level's own S.R. (the paper: a figure)."""
     mine = [r for r in results if r["table"] == "scale" and r["variant"] == variant]
-    counts = sorted(set(PAPER["scale"]["robots"]) | {r["num_agents"] for r in mine})
+    counts = sorted(set(PAPER["scale"]["robots"]) | set(SCALE_ROBOTS) | {r["num_agents"] for r in mine})
     rows, missing = [], []
     for n in counts:
         cells = [
@@ -233,16 +240,17 @@ def scale_table(results: list[dict], variant: str) -> Table:
         ]
         cells[1].digits = 2
         if not cells[0].values:
-            missing.append(f"{n} robots: no finished job")
+            missing.append(f"{_robots(n)}: no finished job")
         elif not cells[2].values:
-            missing.append(f"{n} robots / mid level: no evaluation of the mid level alone")
+            missing.append(f"{_robots(n)} / mid level: no evaluation of the mid level alone")
         rows.append(([str(n)], cells))
-    lines = {f"{n} robots": _matching(mine, num_agents=n) for n in counts}
+    lines = {_robots(n): _matching(mine, num_agents=n) for n in counts}
     findings = list(filter(None, (plots.budget_verdict(label, r) for label, r in lines.items())))
     measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
     if measured:
         best = max(measured)
-        findings.insert(0, f"Best robot count here: {best[2]} ({best[0]:.1f} \u00b1 {best[1]:.1f} % S.R.)")
+        among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
+        findings.insert(0, f"Best robot count{among} here: {best[2]} ({best[0]:.1f} \u00b1 {best[1]:.1f} % S.R.)")
     findings += _reference_mid_finding(rows)
     return Table(
         f"scale_{variant}",
