@@ -22,6 +22,11 @@ CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().paren
 GROUPS = ("task", "level", "lowlevel", "reward", "algo", "critic", "debug")
 
 
+def group_file(group: str, name: str) -> DictConfig:
+    """One config file of a group as written, not composed (e.g. experiment, scale: its sweep axes and budgets)."""
+    return OmegaConf.load(CONF_DIR / group / f"{name}.yaml")
+
+
 def group_options(group: str) -> list[str]:
     """The config files of a group, by name (e.g. task -> cuboid, cylinder, ocb_cuboid, tblock)."""
     return sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))

@@ -157,12 +157,13 @@ def cost_per_env_step(results: list[dict], roots: list[Path]) -> dict[tuple, flo
     for result in results:
         for name, path in result.get("stages", {}).items():
             key, core_s = identity_of(Path(path)), result.get("stage_core_s", {}).get(name)
-            records = [stage_dir(root, key) / IDENTITY_FILE for root in roots] if key else []
-            record = next((r for r in records if r.is_file()), None)
-            config = OmegaConf.select(OmegaConf.load(record), "config") if record else None
-            if core_s is None or config is None or key in seen:
+            if core_s is None or key is None or key in seen:
                 continue
             seen.add(key)
+            record = next((r for r in (stage_dir(root, key) / IDENTITY_FILE for root in roots) if r.is_file()), None)
+            config = OmegaConf.select(OmegaConf.load(record), "config") if record else None
+            if config is None:
+                continue
             cfg = OmegaConf.to_container(config)
             kind = shape(cfg)
             seconds[kind] = seconds.get(kind, 0.0) + float(core_s)

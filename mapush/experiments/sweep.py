@@ -20,7 +20,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Glob
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import CONF_DIR, compose_config, group_options, to_plain
+from mapush.config import CONF_DIR, compose_config, group_file, group_options, to_plain
 from mapush.errors import BadInput
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
@@ -115,7 +115,7 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
                 raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(group_options(group))}")
     launcher = given.get("launcher", "local")
     _check_launcher_plugin(launcher)
-    experiment = OmegaConf.load(CONF_DIR / "experiment" / f"{given.get('experiment', 'main')}.yaml")
+    experiment = group_file("experiment", given.get("experiment", "main"))
     budget_name = given.get("budget", "quick")
     budget = budget_of(OmegaConf.create({"experiment": experiment, "budget": budget_name}))
     axes = {**{k: list(v) for k, v in experiment.sweep.items()}, "seed": list(budget.seeds)}

@@ -14,14 +14,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from mapush.config import CONF_DIR
+from mapush.config import group_file
 from mapush.experiments.archive import load_results
 from mapush.report import plots
 from mapush.report.cost import cost_by, measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
-SCALE_ROBOTS = yaml.safe_load((CONF_DIR / "experiment" / "scale.yaml").read_text())["sweep"]["agents"]
+SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 """The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
 
 
