@@ -58,6 +58,8 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
         "machine_h": 2.5,
         "superseded": 0,
         "superseded_machine_h": 0.0,
+        "other_machines": {},
+        "other_machines_core_h": 0.0,
     }
 
 
@@ -78,6 +80,18 @@ def test_the_cost_line_stands_under_the_table_and_in_its_sidecar(two_jobs):
     assert line in markdown(table).splitlines()
     assert sidecar(table)["cost"] == cost
     assert cost_line(measured_cost([], cores=2)) == ""
+
+
+def test_jobs_that_ran_on_a_machine_of_other_cores_are_counted_and_said_apart(two_jobs, tmp_path):
+    c = stage_run(tmp_path, "c", 1, [{0: (3000.0, 600.0)}])  # 1 core-h, trained on a lent 16-core machine
+    lent = {"stages": {"high": str(c)}, "eval_wall_s": 1800.0, "threads": 1, "machine_cores": 16}
+    here = [{**r, "machine_cores": 2} for r in two_jobs]  # 3.5 + 1.5 core-h, as above
+    cost = measured_cost([*here, lent, dict(lent)], cores=2)
+    # the two lent jobs share stage c: 1 core-h of training and 2 x 0.5 core-h of evaluation
+    assert (cost["cores"], cost["other_machines"], cost["other_machines_core_h"]) == (2, {16: 2}, 2.0)
+    assert cost["machine_h"] == 3.5  # (3.5 + 1.5 + 2.0) core-h / 2 cores
+    assert "jobs run elsewhere: 2 on a 16-core machine; their 2.0 core-hours are counted as measured" in cost_line(cost)
+    assert "elsewhere" not in cost_line(measured_cost(here))  # the machine the jobs record: 2 cores
 
 
 def test_each_method_is_charged_what_it_added_and_the_parts_add_up_to_the_whole(two_jobs, tmp_path):

@@ -40,7 +40,11 @@ def measured_cost(
     A job that ran again after its experiment changed left its earlier result (`result.superseded.json`). Made
     of the same evaluated stage (only evaluations changed), it counts too: the evaluations the job kept came
     from it. Made of other stages (a recipe changed), it is history, not what the results cost: what it added
-    is given apart (`superseded`, `superseded_machine_h`)."""
+    is given apart (`superseded`, `superseded_machine_h`).
+
+    Jobs that ran on a machine of another core count (a lent many-core machine) are counted in core-seconds as
+    measured there, which are not this machine's: how many and what they added is said (`other_machines`, cores
+    -> jobs; `other_machines_core_h`)."""
     results = [r for r in results if r.get("stages")]  # hand-made results may name none
     pairs = [(r, e) for r in results if (e := _superseded(r))]
     again = [e for r, e in pairs if _evaluated(e) == _evaluated(r)]
@@ -50,6 +54,7 @@ def measured_cost(
     cores = cores or (recorded.most_common(1)[0][0] if recorded else os.cpu_count() or 1)
     seconds = cost.pop("seconds")
     before = _cost_of(results, again + replaced, stage_seconds)["seconds"] - seconds if replaced else 0.0
+    elsewhere = [r for r in results if int(r.get("machine_cores") or cores) != cores]
     return {
         **cost,
         "evaluated_again": len(again),
@@ -57,6 +62,8 @@ def measured_cost(
         "machine_h": round(seconds / 3600 / cores, 2),
         "superseded": len(replaced),
         "superseded_machine_h": round(before / 3600 / cores, 2),
+        "other_machines": dict(sorted(Counter(int(r["machine_cores"]) for r in elsewhere).items())),
+        "other_machines_core_h": round(_cost_of(elsewhere, [], stage_seconds)["seconds"] / 3600, 2),
     }
 
 
@@ -186,6 +193,10 @@ def cost_line(cost: dict) -> str:
     if cost.get("superseded"):
         notes.append(f"not counted: {cost['superseded_machine_h']:.1f} hours more on {cost['superseded']} earlier "
                      "results that jobs replaced when their experiment changed")  # fmt: skip
+    if cost.get("other_machines"):
+        where = " and ".join(f"{jobs} on a {cores}-core machine" for cores, jobs in cost["other_machines"].items())
+        notes.append(f"jobs run elsewhere: {where}; their {cost['other_machines_core_h']:.1f} core-hours are counted "
+                     "as measured there, on other cores than this machine's")  # fmt: skip
     if cost.get("stages_from_records"):
         notes.append(f"{cost['stages_from_records']} stages' training time as their jobs recorded it (runs archived)")
     if cost["unreadable_stages"]:
