@@ -10,6 +10,7 @@ import pytest
 from omegaconf import OmegaConf
 
 from mapush.config import compose_config
+from mapush.experiments.archive import made_otherwise
 from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
 from mapush.experiments.stages import compose_stage, identity_of
 from mapush.rundir import find_runs
@@ -185,6 +186,23 @@ def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp
     longer = _job_cfg(tmp_path, "experiment.budgets.smoke.stages.high.env_steps=1600")
     changes = result_changes(result, longer, planned_stages(longer))
     assert changes.startswith("its stages changed (high: ") and "mid" not in changes
+
+
+def test_a_result_made_otherwise_than_planned_now_is_told_from_its_job_dir(tmp_path):
+    # what `mapush tables` marks: the job is composed again from its dir's axes, experiment, budget and overrides
+    cfg = _job_cfg(tmp_path)
+    now = {stage.name: stage.identity for stage in planned_stages(cfg)}
+    job = {"experiment": "main", "budget": "smoke", "overrides": ["debug=smoke"]}
+    job["job_dir"] = str(tmp_path / "main_smoke_debug-smoke" / "method=sa,seed=0,task=cylinder")
+    assert made_otherwise(_fake_result(cfg, now) | job) == ""
+    earlier = _fake_result(cfg, {**now, "high": "0123456789abcdef"}) | job  # a high level of another recipe
+    assert made_otherwise(earlier) == f"its stages changed (high: 0123456789abcdef -> {now['high']})"
+    # another job's axes (the seed) plan other stages than the result's
+    other_seed = job | {"job_dir": job["job_dir"].replace("seed=0", "seed=1")}
+    assert made_otherwise(_fake_result(cfg, now) | other_seed).startswith("its stages changed (")
+    # nothing to tell: stage runs outside a store, or an experiment that no longer composes
+    assert made_otherwise({"stages": {"high": str(tmp_path / "run")}} | job) == ""
+    assert made_otherwise(_fake_result(cfg, now) | job | {"experiment": "gone"}) == ""
 
 
 @pytest.mark.slow

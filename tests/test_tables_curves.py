@@ -10,6 +10,7 @@ import pytest
 
 from mapush.eval.curves import tail_gain
 from mapush.experiments.pipeline import RESULT
+from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, latex, markdown, sidecar
 
 RULE = {"tail": 0.2, "max_gain": 0.03}
 CURVES = {  # success at 1, 2, 3, 4, 5 M env-steps, per seed
@@ -166,3 +167,14 @@ def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
     assert _reference_mid_finding(rows([78.0, 82.0]))[0].endswith("reached 72.3 %: at or above it")
     assert _reference_mid_finding(rows([68.0, 74.0]))[0].endswith("below it, within the seeds' spread")
     assert _reference_mid_finding(rows([])) == []
+
+
+def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
+    cell = Cell([80.0, 60.0], ["a", "b"], paper=(77.5, 3.0), otherwise=1)
+    assert cell.text() == "70.0 \u00b1 10.0 \u2020 (77.5 \u00b1 3.0)" and cell.record()["made_otherwise"] == 1
+    assert "\u2020" not in Cell([80.0, 60.0], ["a", "b"]).text()
+    table = Table("t", "T", ["Task"], ["S.R."], [(["Cuboid"], [cell])], otherwise=["job: its stages changed (...)"])
+    lines = markdown(table).splitlines()
+    assert lines[lines.index(OTHERWISE_NOTE) + 1] == "- job: its stages changed (...)"
+    assert "$\\dagger$" in latex(table) and sidecar(table)["made_otherwise"] == ["job: its stages changed (...)"]
+    assert OTHERWISE_NOTE not in markdown(Table("t", "T", ["Task"], ["S.R."], [(["Cuboid"], [Cell([1.0])])]))

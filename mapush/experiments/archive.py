@@ -17,7 +17,9 @@ import os
 import shutil
 from pathlib import Path
 
-from mapush.experiments.pipeline import RESULT, SUPERSEDED, recorded_stage_seconds
+from mapush.config import compose_config
+from mapush.errors import BadInput
+from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, recorded_stage_seconds, result_changes
 from mapush.experiments.stages import IDENTITY_FILE, identity_of, stage_dir, stage_paths, stands_for, store_root
 
 ARCHIVE = Path("results/jobs")
@@ -97,3 +99,23 @@ def load_results(roots: list[Path]) -> list[dict]:
             if key not in chosen or str(result.get("finished", "")) > str(chosen[key].get("finished", "")):
                 chosen[key] = result
     return [chosen[key] for key in sorted(chosen)]
+
+
+def made_otherwise(result: dict) -> str:
+    """What makes a finished `result` other than its experiment plans the job now (another recipe: a budget, a
+    reward or tracker value, an evaluation), "" when nothing does or when that cannot be told (a result without
+    stages in a store, or whose experiment no longer composes). The job is composed from the axes its dir is named
+    by (Hydra's `override_dirname`, e.g. `agents=2,method=ours,seed=0,task=cylinder`), its experiment, budget and
+    stage overrides; its stages' records are read from the root it lies under (`<root>/<sweep>/<job>/`)."""
+    job_dir = Path(result["job_dir"])
+    if not any(identity_of(Path(path)) for path in result.get("stages", {}).values()):
+        return ""
+    axes = [axis for axis in job_dir.name.split(",") if "=" in axis]
+    extra = [f"overrides=[{','.join(repr(o) for o in result['overrides'])}]"] if result.get("overrides") else []
+    try:
+        cfg = compose_config(
+            [f"experiment={result['experiment']}", f"budget={result['budget']}", *axes, *extra], config_name="sweep"
+        )
+        return result_changes(result, cfg, planned_stages(cfg), job_dir.parent.parent)
+    except (BadInput, KeyError, ValueError):
+        return ""

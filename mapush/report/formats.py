@@ -13,6 +13,12 @@ from mapush.report.cost import cost_line
 
 MISSING = "\u2014"
 """An empty cell: no finished job behind it."""
+OTHERWISE = "\u2020"
+"""Marks a cell with seeds from jobs made otherwise than their experiment plans them now: an earlier recipe."""
+OTHERWISE_NOTE = (
+    f"{OTHERWISE} Made otherwise than the experiment plans now (an earlier recipe), kept until trained again "
+    "(`rerun_changed=true`):"
+)
 
 
 @dataclass
@@ -24,6 +30,7 @@ class Cell:
     paper: tuple[float, float] | None = None
     digits: int = 1
     unreached: int = 0  # seeds that never reached what the cell measures (e.g. env-steps to 50 % success)
+    otherwise: int = 0  # seeds from jobs made otherwise than their experiment plans now (an earlier recipe)
 
     def text(self) -> str:
         digits = self.digits
@@ -32,6 +39,8 @@ class Cell:
             ours = f"{self._ours()} ({self.unreached} of {self.unreached + len(self.values)} seeds never)"
         elif self.values:
             ours = self._ours()
+        if self.otherwise:
+            ours += f" {OTHERWISE}"
         if self.paper is None:
             return ours
         return f"{ours} ({self.paper[0]:.{digits}f} \u00b1 {self.paper[1]:.{digits}f})"
@@ -48,6 +57,7 @@ class Cell:
             "std": float(np.std(self.values)) if self.values else None,
             "seeds": len(self.values),
             "unreached": self.unreached,
+            "made_otherwise": self.otherwise,
             "paper": list(self.paper) if self.paper else None,
             "sources": self.sources,
         }
@@ -67,6 +77,7 @@ class Table:
     findings: list[str] = field(default_factory=list)  # what holds here of the paper's findings, budget checks
     curves: dict = field(default_factory=dict)  # {panel: {label: results}} for the learning-curve plot
     cost: dict = field(default_factory=dict)  # what the runs behind it cost (`mapush.report.cost`)
+    otherwise: list[str] = field(default_factory=list)  # jobs made otherwise than planned now, and how
 
 
 def markdown(table: Table) -> str:
@@ -81,6 +92,8 @@ def markdown(table: Table) -> str:
         lines += ["", cost_line(table.cost)]
     if table.missing:
         lines += ["", f"Missing cells ({MISSING}):", *(f"- {m}" for m in table.missing)]
+    if table.otherwise:
+        lines += ["", OTHERWISE_NOTE, *(f"- {m}" for m in table.otherwise)]
     return "\n".join(lines) + "\n"
 
 
@@ -92,6 +105,7 @@ def latex(table: Table) -> str:
             .replace("\u2191", "$\\uparrow$")
             .replace("\u2193", "$\\downarrow$")
             .replace(MISSING, "--")
+            .replace(OTHERWISE, "$\\dagger$")
             .replace("_", "\\_")
         )
 
@@ -130,4 +144,4 @@ def sidecar(table: Table) -> dict:
         for column, cell in zip(table.columns, cells, strict=True)
     ]
     return {"table": table.name, "title": table.title, "cells": cells, "missing": table.missing,
-            "findings": table.findings, "cost": table.cost}  # fmt: skip
+            "findings": table.findings, "cost": table.cost, "made_otherwise": table.otherwise}  # fmt: skip

@@ -15,7 +15,7 @@ import numpy as np
 import yaml
 
 from mapush.config import group_file
-from mapush.experiments.archive import load_results
+from mapush.experiments.archive import load_results, made_otherwise
 from mapush.report import plots
 from mapush.report.cost import cost_by, measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
@@ -41,6 +41,7 @@ def _collect(results: list[dict], metric: str, scale: float, **match) -> Cell:
         if eval_name in r["evals"]:
             cell.values.append(scale * r["evals"][eval_name][metric])
             cell.sources.append(r["job_dir"])
+            cell.otherwise += bool(r.get("made_otherwise"))
     return cell
 
 
@@ -306,6 +307,8 @@ def write_tables(
     a modified sweep never mixes with the plain one.
     """
     results = load_results(roots)
+    for r in results:
+        r["made_otherwise"] = made_otherwise(r)
     variants = sorted({r["variant"] for r in results} | {"quick"})
     out.mkdir(parents=True, exist_ok=True)
     tables, kept = [], []
@@ -320,6 +323,9 @@ def write_tables(
                 kept.append((table, earlier))
                 continue
             behind = [r for r in results if r["table"] == kind and r["variant"] == variant]
+            table.otherwise = [
+                f"{Path(r['job_dir']).name}: {r['made_otherwise']}" for r in behind if r["made_otherwise"]
+            ]
             table.cost = measured_cost(behind)
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
             (out / f"{table.name}.md").write_text(markdown(table))
