@@ -19,7 +19,14 @@ from pathlib import Path
 
 from mapush.config import compose_config
 from mapush.errors import BadInput
-from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, recorded_stage_seconds, result_changes
+from mapush.experiments.pipeline import (
+    RESULT,
+    SUPERSEDED,
+    every_stage_override,
+    planned_stages,
+    recorded_stage_seconds,
+    result_changes,
+)
 from mapush.experiments.stages import IDENTITY_FILE, identity_of, stage_dir, stage_paths, stands_for, store_root
 
 ARCHIVE = Path("results/jobs")
@@ -111,7 +118,7 @@ def made_otherwise(result: dict) -> str:
     if not any(identity_of(Path(path)) for path in result.get("stages", {}).values()):
         return ""
     axes = [axis for axis in job_dir.name.split(",") if "=" in axis]
-    extra = [f"overrides=[{','.join(repr(o) for o in result['overrides'])}]"] if result.get("overrides") else []
+    extra = [every_stage_override(result["overrides"])] if result.get("overrides") else []
     try:
         cfg = compose_config(
             [f"experiment={result['experiment']}", f"budget={result['budget']}", *axes, *extra], config_name="sweep"

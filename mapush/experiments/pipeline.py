@@ -374,6 +374,11 @@ def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:
     return f"{key}={quoted(runs[stage])}"
 
 
+def every_stage_override(overrides: list[str]) -> str:
+    """A sweep job's `overrides` (extra overrides for every stage) as one Hydra override: `overrides=['a=1','b=2']`."""
+    return "overrides=[" + ",".join(repr(o) for o in overrides) + "]"
+
+
 def quoted(path: Path) -> str:
     """A path as a quoted Hydra override value (job dirs hold `=` and `,`)."""
     text = str(path)

@@ -29,6 +29,7 @@ from mapush.experiments.pipeline import (
     RESULT,
     archived_result,
     budget_of,
+    every_stage_override,
     planned_stages,
     result_changes,
     run_job,
@@ -104,7 +105,7 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     if stage:
         if any(o.startswith("overrides=") for o in overrides):
             raise BadInput(f"give stage overrides either as overrides=[...] or bare, not both: {' '.join(stage)}")
-        overrides.append("overrides=[" + ",".join(repr(o) for o in stage) + "]")
+        overrides.append(every_stage_override(stage))
         if not any(o.startswith("sweep_name=") for o in overrides):  # keep them apart from the plain sweep
             overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{overrides_name(stage)}")
     given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
