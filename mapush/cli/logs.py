@@ -68,3 +68,19 @@ def layout(
     else:
         out.write_text(text + "\n")
         print(out)
+
+
+@logs.command()
+def episodes(
+    file: Path = typer.Argument(..., help="An episodes.mcap (eval) or train_episodes.mcap of a pushing level."),
+    as_json: bool = typer.Option(False, "--json", help="Print the rows as JSON instead of a Markdown table."),
+) -> None:
+    """How the object moved in each recorded episode: travel against the reference path, stalls, obstacle contact."""
+    import json
+
+    from mapush.logging.episode_stats import episode_stats, format_rows, read_tracks
+
+    rows = [episode_stats(track) for track in read_tracks(file)]
+    if not rows:
+        raise BadInput(f"{str(file)!r} holds no finished episode; valid: an episodes.mcap with at least one")
+    print(json.dumps(rows, indent=1) if as_json else format_rows(rows))
