@@ -38,7 +38,6 @@ def track(xy, path=None, obstacles=(), hull=None, yaw=None, dt=0.02, outcome="ti
         dt=dt,
         object_xy=xy,
         object_yaw=np.zeros(len(xy)) if yaw is None else np.asarray(yaw, dtype=float),
-        robot_xy=np.zeros((len(xy), 2, 2)),
         hull=square if hull is None else hull,
         path=None if path is None else np.asarray(path, dtype=float),
         goal_xy=np.array([10.0, 0.0]),

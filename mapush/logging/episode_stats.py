@@ -4,7 +4,7 @@
 (travel far beyond the start-to-end distance), stall (the object still most of the time), or jam against an
 obstacle (the object's footprint touching a block), and how far the object strayed from the reference path.
 
-Everything is read from the file alone: the object's and robots' poses from `/tf`, the object's footprint, the
+Everything is read from the file alone: the object's pose from `/tf`, the object's footprint, the
 reference path, the target and the obstacle blocks from each episode's first `/scene`, the outcome from
 `/episode` (topics: `mapush.logging.episodes`).
 """
@@ -23,6 +23,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from mapush.errors import BadInput
 from mapush.logging.mcap_files import stream_records
+from mapush.logging.scene import OBJECT
 from mapush.planning import paths
 from mapush.planning.geometry import corners, polygon_gap, transform
 from mapush.sim.shapes import object_hull
@@ -41,7 +42,6 @@ class Track:
     dt: float  # s between steps
     object_xy: np.ndarray  # (T, 2)
     object_yaw: np.ndarray  # (T,)
-    robot_xy: np.ndarray  # (T, A, 2)
     hull: np.ndarray  # (H, 2) the object's footprint, convex, in its own frame
     path: np.ndarray | None  # (P, 2) the reference path (high level), else None
     goal_xy: np.ndarray  # (2,) the final target (high level) or the first subgoal (mid level)
@@ -88,14 +88,15 @@ def read_tracks(file: Path) -> list[Track]:
     contents = stream_records(Path(file))
     topics = {cid: channel.topic for cid, channel in contents.channels.items()}
     tracks: list[Track] = []
-    poses: list[list[tuple[float, float, float]]] = []
+    poses: list[tuple[float, float, float]] = []  # the object's x, y, yaw at each step
     times: list[int] = []
     scene: dict | None = None
     for message in contents.messages:
         topic = topics.get(message.channel_id)
         if topic == "/tf":
             frames = FrameTransforms.FromString(message.data).transforms
-            poses.append([(t.translation.x, t.translation.y, _yaw(t.rotation)) for t in frames])
+            obj = next(t for t in frames if t.child_frame_id == OBJECT)
+            poses.append((obj.translation.x, obj.translation.y, _yaw(obj.rotation)))
             times.append(message.log_time)
         elif topic == "/scene" and scene is None:
             try:
@@ -106,15 +107,14 @@ def read_tracks(file: Path) -> list[Track]:
                     "(level=mid, high, mid_long)"
                 ) from None
         elif topic == "/episode" and poses:
-            pose = np.array(poses)  # (T, 1 + A, 3): the object, then each robot
+            pose = np.array(poses)  # (T, 3)
             dt = float(np.median(np.diff(times))) / 1e9 if len(times) > 1 else 0.0
             tracks.append(
                 Track(
                     end=json.loads(message.data),
                     dt=dt,
-                    object_xy=pose[:, 0, :2],
-                    object_yaw=pose[:, 0, 2],
-                    robot_xy=pose[:, 1:, :2],
+                    object_xy=pose[:, :2],
+                    object_yaw=pose[:, 2],
                     **scene,
                 )
             )
@@ -135,7 +135,7 @@ def episode_stats(track: Track) -> dict:
     """
     xy = torch.as_tensor(track.object_xy, dtype=torch.float64)
     step = torch.linalg.vector_norm(xy[1:] - xy[:-1], dim=-1)
-    speed = step / track.dt if track.dt > 0 else torch.zeros_like(step)
+    speed = step / track.dt  # empty when the episode has one step (dt 0)
     row = {
         "outcome": track.end["outcome"] + (f" ({track.end['exception']})" if track.end.get("exception") else ""),
         "time_s": float(track.end["time_s"]),
