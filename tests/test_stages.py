@@ -7,12 +7,14 @@ import json
 from pathlib import Path
 
 import pytest
-from omegaconf import OmegaConf
+from omegaconf import OmegaConf, open_dict
 
 from mapush.config import compose_config
+from mapush.errors import BadInput
 from mapush.experiments.archive import made_otherwise
 from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
 from mapush.experiments.stages import compose_stage, identity_of
+from mapush.experiments.sweep import sweep_overrides
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
@@ -50,6 +52,32 @@ def test_a_changed_reward_weight_tracker_value_or_budget_is_another_stage():
     # a high-level change leaves the mid level shared
     high_only = _identities("experiment.budgets.quick.stages.high.env_steps=3.0e6")
     assert high_only["mid"] == base["mid"] and high_only["high"] != base["high"]
+
+
+def test_a_task_may_have_its_own_stage_budget():
+    # experiment/main.yaml: the T-block's high levels learn for 10M env-steps, every other task's for 5M; a high
+    # iteration is 128 envs x 32 decisions x 25 control steps = 102,400 env-steps
+    def high(task: str):
+        return planned_stages(compose_config(["experiment=main", "method=ours", f"task={task}"], config_name="sweep"))
+
+    assert [s.env_steps for s in high("tblock")] == [12_000_000, 98 * 102_400]
+    assert [s.env_steps for s in high("cuboid")] == [12_000_000, 49 * 102_400]
+    cfg = compose_config(["experiment=main", "method=ours", "task=tblock"], config_name="sweep")
+    with open_dict(cfg):
+        cfg.experiment.budgets.quick.stages.high.by_task = {"tblok": {"env_steps": 1.0e6}}
+    with pytest.raises(BadInput, match=r"by_task entry 'tblok'.*valid: tasks cuboid, cylinder"):
+        planned_stages(cfg)
+
+
+def test_a_field_of_the_task_on_the_sweep_command_line_reaches_every_stage():
+    # `task` is a sweep axis, but a field of it is a stage override: each stage composes its task from the job's
+    # task name, so `task.object.friction=...` left among the sweep's keys would be dropped without a word
+    full = sweep_overrides(["method=ours", "task=cylinder", "task.object.friction=[0.2,0.25]"])
+    assert "task.object.friction=[0.2,0.25]" not in full
+    assert "overrides=['task.object.friction=[0.2,0.25]']" in full
+    plain = _identities("task=cylinder")
+    lighter = _identities("task=cylinder", "overrides=['task.object.friction=[0.2,0.25]']")
+    assert lighter["mid"] != plain["mid"] and lighter["high"] != plain["high"]
 
 
 def test_the_identities_of_stages_already_trained_stay_as_they_were():

@@ -23,7 +23,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 
 from mapush import train as training
-from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
+from mapush.config import apply_overrides, compose_config, group_options, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
@@ -68,16 +68,13 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
             f"budget {cfg.budget!r} draws its learning curve with evaluation {curve.eval!r}, which runs another "
             f"stage than the evaluated {evaluated!r}; valid: an evaluation of {evaluated!r}"
         )
-    budget = budget_of(cfg)
     job = [f"task={cfg.task.name}", f"seed={cfg.seed}"]
     if cfg.agents is not None:
         job.append(f"task.num_agents={cfg.agents}")
     plan = []
     for name in trained:
-        if name not in budget.stages:
-            raise BadInput(f"budget {cfg.budget!r} of experiment {experiment.name!r} has no stage {name!r}")
         overrides = [*method.overrides, *method.stages[name], *job, *cfg.overrides]
-        overrides.append(f"num_envs={budget.stages[name].num_envs}")
+        overrides.append(f"num_envs={stage_budget(cfg, name).num_envs}")
         plan.append((name, overrides))
     return plan
 
@@ -93,6 +90,25 @@ def budget_of(cfg: DictConfig) -> DictConfig:
     if cfg.budget not in budgets:
         raise BadInput(f"unknown budget {cfg.budget!r}; valid: {', '.join(budgets)}")
     return budgets[cfg.budget]
+
+
+def stage_budget(cfg: DictConfig, name: str) -> DictConfig:
+    """The budget's `num_envs` and `env_steps` for stage `name` of the job's task: the stage's entry, with the
+    task's own values from its `by_task` where the task has some (a stage that learns more slowly on one object)."""
+    budget = budget_of(cfg)
+    if name not in budget.stages:
+        raise BadInput(f"budget {cfg.budget!r} of experiment {cfg.experiment.name!r} has no stage {name!r}")
+    entry = budget.stages[name]
+    by_task = entry.get("by_task", {})
+    for task, own in by_task.items():
+        unknown = [key for key in own if key not in ("num_envs", "env_steps")]
+        if task not in group_options("task") or unknown:
+            raise BadInput(
+                f"budget {cfg.budget!r} stage {name!r} by_task entry {task!r} {unknown or ''}; valid: tasks "
+                f"{', '.join(group_options('task'))}, each with num_envs and/or env_steps"
+            )
+    own = by_task.get(cfg.task.name, {})
+    return OmegaConf.create({key: own.get(key, entry[key]) for key in ("num_envs", "env_steps")})
 
 
 def variant(cfg: DictConfig) -> str:
@@ -120,7 +136,7 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
     identities: dict[str, str] = {}
     planned = []
     for name, overrides in stage_plan(cfg):
-        env_steps = float(budget.stages[name].env_steps)
+        env_steps = float(stage_budget(cfg, name).env_steps)
         stage_cfg = stages.compose_stage(overrides, lambda c, s=env_steps: iterations_for(c, s))
         identities[name] = stages.identity(stage_cfg, overrides, identities)
         iterations = int(stage_cfg["train"]["iterations"])

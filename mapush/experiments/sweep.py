@@ -129,8 +129,11 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
 
 
 def _is_sweep_key(override: str) -> bool:
-    key = override.lstrip("+~").partition("=")[0].split(".")[0]
-    return key in SWEEP_KEYS or key == "hydra"
+    key = override.lstrip("+~").partition("=")[0]
+    head = key.split(".")[0]
+    if head == "task" and key != "task":  # a field of the task (`task.object.friction=...`): each stage composes
+        return False  # its task from the job's task name, so the field must go to the stages, not to the sweep
+    return head in SWEEP_KEYS or head == "hydra"
 
 
 def _split_axes(overrides: list[str]) -> dict[str, list[str]]:
