@@ -65,7 +65,11 @@ def test_a_task_may_have_its_own_stage_budget():
     cfg = compose_config(["experiment=main", "method=ours", "task=tblock"], config_name="sweep")
     with open_dict(cfg):
         cfg.experiment.budgets.quick.stages.high.by_task = {"tblok": {"env_steps": 1.0e6}}
-    with pytest.raises(BadInput, match=r"by_task entry 'tblok'.*valid: tasks cuboid, cylinder"):
+    with pytest.raises(BadInput, match=r"by_task entry 'tblok'; valid: tasks cuboid, cylinder"):
+        planned_stages(cfg)
+    with open_dict(cfg):
+        cfg.experiment.budgets.quick.stages.high.by_task = {"tblock": {"envsteps": 1.0e6}}
+    with pytest.raises(BadInput, match=r"by_task entry 'tblock.envsteps'; valid: .* num_envs and/or env_steps"):
         planned_stages(cfg)
 
 

@@ -101,11 +101,11 @@ def stage_budget(cfg: DictConfig, name: str) -> DictConfig:
     entry = budget.stages[name]
     by_task = entry.get("by_task", {})
     for task, own in by_task.items():
-        unknown = [key for key in own if key not in ("num_envs", "env_steps")]
+        unknown = [f"{task}.{key}" for key in own if key not in ("num_envs", "env_steps")]
         if task not in group_options("task") or unknown:
             raise BadInput(
-                f"budget {cfg.budget!r} stage {name!r} by_task entry {task!r} {unknown or ''}; valid: tasks "
-                f"{', '.join(group_options('task'))}, each with num_envs and/or env_steps"
+                f"budget {cfg.budget!r} stage {name!r}: unknown by_task entry {(unknown or [task])[0]!r}; valid: "
+                f"tasks {', '.join(group_options('task'))}, each with num_envs and/or env_steps"
             )
     own = by_task.get(cfg.task.name, {})
     return OmegaConf.create({key: own.get(key, entry[key]) for key in ("num_envs", "env_steps")})
