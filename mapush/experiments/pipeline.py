@@ -36,6 +36,8 @@ from mapush.rundir import checkpoints, find_runs, is_complete
 RESULT = "result.json"
 SUPERSEDED = "result.superseded.json"
 """Where a job's earlier result goes when the experiment changed under it (`result_changes`)."""
+STAGE_BUDGET_KEYS = ("num_envs", "env_steps")
+"""What a budget sets for each stage (and what a stage's `by_task` entry may set for one task)."""
 
 
 def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
@@ -101,14 +103,14 @@ def stage_budget(cfg: DictConfig, name: str) -> DictConfig:
     entry = budget.stages[name]
     by_task = entry.get("by_task", {})
     for task, own in by_task.items():
-        unknown = [f"{task}.{key}" for key in own if key not in ("num_envs", "env_steps")]
+        unknown = [f"{task}.{key}" for key in own if key not in STAGE_BUDGET_KEYS]
         if task not in group_options("task") or unknown:
             raise BadInput(
                 f"budget {cfg.budget!r} stage {name!r}: unknown by_task entry {(unknown or [task])[0]!r}; valid: "
                 f"tasks {', '.join(group_options('task'))}, each with num_envs and/or env_steps"
             )
     own = by_task.get(cfg.task.name, {})
-    return OmegaConf.create({key: own.get(key, entry[key]) for key in ("num_envs", "env_steps")})
+    return OmegaConf.create({key: own.get(key, entry[key]) for key in STAGE_BUDGET_KEYS})
 
 
 def variant(cfg: DictConfig) -> str:

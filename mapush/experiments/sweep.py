@@ -39,6 +39,9 @@ from mapush.experiments.stages import STAGE_REF
 from mapush.levels import env_class
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
+STAGE_GROUPS = ("task",)
+"""Sweep groups that each stage composes again from the job's choice (`task=<name>`): a field of one
+(`task.object.friction=...`) goes to the stages, not to the sweep, or the stages would never see it."""
 SWEEP_KEYS = (
     *SWEEP_GROUPS,
     "seed",
@@ -131,8 +134,8 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
 def _is_sweep_key(override: str) -> bool:
     key = override.lstrip("+~").partition("=")[0]
     head = key.split(".")[0]
-    if head == "task" and key != "task":  # a field of the task (`task.object.friction=...`): each stage composes
-        return False  # its task from the job's task name, so the field must go to the stages, not to the sweep
+    if head in STAGE_GROUPS and key != head:
+        return False
     return head in SWEEP_KEYS or head == "hydra"
 
 
