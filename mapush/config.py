@@ -19,6 +19,20 @@ from mapush.schema import check_config
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
 """The `mapush/conf/` tree: package data, so a checkout, an editable install and a wheel all compose alike."""
 
+
+def physx_average(coefficients, other: float) -> list[float]:
+    """The sliding friction of PhysX contacts between bodies of `coefficients` and one body of `other`: the average
+    of the two, PhysX's default combine mode, which the original ran (paper-and-original.md 2.1).
+
+    MuJoCo takes the larger of a contact's two coefficients, so an object on a less frictional floor carries the
+    averaged value itself (the task's `object.friction`). Rounded to 1e-9 so that 0.4 stays 0.4.
+    """
+    return [round((float(mu) + float(other)) / 2, 9) for mu in coefficients]
+
+
+if not OmegaConf.has_resolver("physx_average"):
+    OmegaConf.register_new_resolver("physx_average", physx_average)
+
 GROUPS = ("task", "level", "lowlevel", "reward", "algo", "critic", "debug")
 
 

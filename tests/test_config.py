@@ -123,3 +123,20 @@ def test_the_cylinder_weighs_its_mid_reward_as_the_original_checkpoints_did():
 
 def test_a_command_line_weight_overrides_the_tasks_own():
     assert _mid_weights("task=cylinder", "reward.terms.ocb.weight=0.01")["ocb"] == pytest.approx(0.01)
+
+
+@pytest.mark.parametrize(
+    ("task", "effective"),
+    # paper-and-original.md 1.1 and 2.1: the original's object friction U[0.5, 0.6] (cuboid), U[0.6, 0.7] (T-block),
+    # U[0.3, 0.4] (cylinder) on a 0.1 floor; PhysX's default combine mode averages a contact's two coefficients
+    [("cuboid", [0.3, 0.35]), ("tblock", [0.35, 0.4]), ("cylinder", [0.2, 0.25])],
+)
+def test_the_object_slides_on_the_originals_friction_averaged_with_the_floor_as_physx_did(task, effective):
+    assert to_plain(compose_config([f"task={task}"]))["task"]["object"]["friction"] == effective
+
+
+def test_the_object_friction_follows_the_floor_and_yields_to_a_command_line_value():
+    floor = to_plain(compose_config(["task=cylinder", "sim.floor_friction=0.3"]))["task"]["object"]["friction"]
+    assert floor == [0.3, 0.35]
+    typed = to_plain(compose_config(["task=cylinder", "task.object.friction=[0.5,0.6]"]))["task"]["object"]["friction"]
+    assert typed == [0.5, 0.6]
