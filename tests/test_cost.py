@@ -10,7 +10,7 @@ import pytest
 from stand_ins import stage_run
 
 from mapush.experiments.stages import stage_core_seconds
-from mapush.report.cost import cost_by, cost_line, measured_cost
+from mapush.report.cost import cost_after, cost_by, cost_line, measured_cost
 from mapush.report.formats import Table, markdown, sidecar
 
 
@@ -107,6 +107,26 @@ def test_each_method_is_charged_what_it_added_and_the_parts_add_up_to_the_whole(
         "3.5 hours of a 2-core machine with every core busy; by method, in hours of that machine: Ours 2.5, SA 1.0"
     )
     assert "by method" not in cost_line(cost | {"by_method": {"Ours": 3.5}})  # one method: nothing to split
+
+
+def test_a_table_that_shares_stages_with_another_is_charged_apart_what_it_adds_after_it(two_jobs, tmp_path):
+    main = [{**r, "table": "main"} for r in two_jobs]  # stages a and b: 2.5 h of 2 cores, as above
+    c = stage_run(tmp_path, "c", 1, [{0: (3000.0, 600.0)}])  # 1 core-h
+    # the scalability study: one job evaluates a again (1 core-h), one trains c and evaluates it (1 core-h)
+    scale = [
+        {"stages": {"mid": two_jobs[0]["stages"]["mid"]}, "eval_wall_s": 3600.0, "threads": 1, "table": "scale"},
+        {"stages": {"mid": str(c)}, "eval_wall_s": 1800.0, "threads": 2, "table": "scale"},
+    ]
+    # alone it costs a (1.5 core-h) + c (1) + its evaluations (2): 2.25 h of 2 cores; after the main table, a is
+    # trained: (1 + 2) core-h = 1.5 h
+    assert measured_cost(scale, cores=2)["machine_h"] == 2.25
+    assert cost_after(scale, main, cores=2) == {"tables": ["main"], "shared_stages": 1, "machine_h": 1.5}
+    assert cost_after(main[:0] + scale[1:], main, cores=2) is None  # no stage shared: nothing to say apart
+    cost = measured_cost(scale, cores=2) | {"after": cost_after(scale, main, cores=2)}
+    assert cost_line(cost).endswith(
+        "2.2 hours of a 2-core machine with every core busy; run after the main table's jobs (1 stages shared), "
+        "it adds 1.5 hours"
+    )
 
 
 def test_stage_runs_are_found_under_the_sweep_root_or_counted_as_unreadable(two_jobs, tmp_path):

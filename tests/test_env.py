@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import torch
 
@@ -52,18 +53,67 @@ def test_observations_and_rewards_are_finite_while_pushing(env):
         assert torch.isfinite(reward).all()
 
 
-def test_commands_move_the_robots_at_the_scaled_speed(env):
-    # action 1 is scaled to 0.5 m/s; with the tracker's first-order lag T the robot covers 0.5 (0.4 - T (1 - e^-0.4/T))
-    # in 20 steps (0.4 s) of full forward command (the median: a robot may bump into the object)
-    lag = env.cfg["lowlevel"]["lag"]
-    expected = 0.5 * (0.4 - lag * (1 - math.exp(-0.4 / lag)))
+def _drive_forward(env, steps: int) -> torch.Tensor:
+    """Each robot's distance covered in `steps` policy steps of full forward command, (E, A)."""
     start = env.state.robot_xy.clone()
-    actions = torch.zeros(4, 2, 3)
+    actions = torch.zeros(env.num_envs, env.num_agents, 3)
     actions[..., 0] = 1.0
-    for _ in range(20):
+    for _ in range(steps):
         env.step(actions)
-    moved = torch.linalg.vector_norm(env.state.robot_xy - start, dim=-1)
+    return torch.linalg.vector_norm(env.state.robot_xy - start, dim=-1)
+
+
+def test_commands_move_the_calibrated_robots_of_an_evaluation_env_at_the_scaled_speed():
+    from conftest import composed
+
+    from mapush.envs.mid import MidPushEnv
+
+    # action 1 is scaled to 0.5 m/s; with the tracker's first-order lag T the robot covers 0.5 (0.4 - T (1 - e^-0.4/T))
+    # in 20 steps (0.4 s) of full forward command (the median: a robot may bump into the object). The default
+    # config draws the robots' dynamics in training (`lowlevel.randomize`); evaluation drives the calibrated one.
+    cfg = composed("debug=smoke")
+    assert cfg["lowlevel"]["randomize"]
+    lag = cfg["lowlevel"]["lag"]
+    expected = 0.5 * (0.4 - lag * (1 - math.exp(-0.4 / lag)))
+    moved = _drive_forward(MidPushEnv(cfg, num_envs=4, evaluation=True), 20)
     assert moved.median().item() == pytest.approx(expected, abs=0.005)
+    unvaried = composed("debug=smoke", "lowlevel.randomize=null")  # training without draws: the same robot
+    assert _drive_forward(MidPushEnv(unvaried, num_envs=4), 20).median().item() == pytest.approx(expected, abs=0.005)
+
+
+def test_a_training_env_drives_its_robots_with_the_drawn_dynamics():
+    from conftest import composed
+
+    from mapush.envs.mid import MidPushEnv
+
+    # lag 0.4 s (the other ranges as configured): 0.5 (0.4 - T (1 - e^-0.4/T)) m in 0.4 s, as above
+    cfg = composed("debug=smoke", "lowlevel.randomize.lag=[0.4,0.4]")
+    expected = 0.5 * (0.4 - 0.4 * (1 - math.exp(-1.0)))
+    assert _drive_forward(MidPushEnv(cfg, num_envs=4), 20).median().item() == pytest.approx(expected, abs=0.005)
+    # a 6 N force limit on 12 kg: 0.5 m/s^2 while far below the commanded 0.5 m/s, so 0.1 m/s more in 0.2 s
+    env = MidPushEnv(composed("debug=smoke", "lowlevel.randomize.max_force=[6,6]"), num_envs=4)
+    _drive_forward(env, 10)
+    before = torch.linalg.vector_norm(env.state.robot_vel[..., :2], dim=-1)  # world frame: the speed
+    _drive_forward(env, 10)
+    gained = torch.linalg.vector_norm(env.state.robot_vel[..., :2], dim=-1) - before
+    assert gained.median().item() == pytest.approx(0.1, abs=0.005)
+
+
+def test_robot_dynamics_are_drawn_per_robot_from_the_ranges_and_anew_for_each_episode(make_env):
+    env = make_env("debug=smoke", "lowlevel.randomize={lag:[0.1,0.45],yaw_lag:[0.02,0.4],max_force:[20,45]}")
+    mass, idx = env.cfg["lowlevel"]["mass"], env.lowlevel.ctrl_idx  # (A, 3) actuator ids: x, y, yaw
+
+    def drawn() -> tuple[torch.Tensor, torch.Tensor]:
+        gain = torch.as_tensor(env.sim.batch.expand("actuator_gainprm")[:, idx, 0])  # (E, A, 3)
+        force = torch.as_tensor(env.sim.batch.expand("actuator_forcerange")[:, idx[:, 0], 1])  # (E, A)
+        return mass / gain[..., 0], force
+
+    lag, force = drawn()
+    assert ((lag >= 0.1 - 1e-9) & (lag <= 0.45 + 1e-9)).all() and ((force >= 20) & (force <= 45)).all()
+    assert len(set(lag.flatten().tolist())) == lag.numel()  # one draw per robot
+    env.reset(np.array([1]))
+    lag_after, _ = drawn()
+    assert (lag_after[1] != lag[1]).all() and torch.equal(lag_after[[0, 2, 3]], lag[[0, 2, 3]])
 
 
 def test_actions_are_clipped_to_one(make_env):

@@ -37,12 +37,15 @@ class HighPushEnv(PushEnv):
         num_envs: overrides `cfg["num_envs"]`.
         planner: an `ObjectPlanner` to plan every episode's reference path among obstacles placed as at
             evaluation; None draws the paper's random curved paths with obstacles beside them (training).
-        evaluation: unused here (`mapush.levels.make_env` passes the planner that evaluation asks for).
+        evaluation: an evaluation env (`PushEnv`: no drawn robot dynamics; `mapush.levels.make_env` passes the
+            planner that evaluation asks for).
     """
 
     def __init__(self, cfg: dict, mid=None, num_envs: int | None = None, planner=None, evaluation: bool = False):
         level = cfg["level"]
-        super().__init__(cfg, num_envs, self.policy_rows(cfg), decision_steps=int(level["decision_steps"]))
+        super().__init__(
+            cfg, num_envs, self.policy_rows(cfg), decision_steps=int(level["decision_steps"]), evaluation=evaluation
+        )
         self.mid = mid
         self.planner = planner
         self.decision_steps = int(level["decision_steps"])

@@ -20,11 +20,11 @@ class MidPushEnv(PushEnv):
     Args:
         cfg: the composed config as a plain dict (task, level, lowlevel, reward, sim, seed).
         num_envs: overrides `cfg["num_envs"]` (eval and bench use their own counts).
-        evaluation: unused; every level takes it (`mapush.levels.make_env`).
+        evaluation: an evaluation env (`PushEnv`: no drawn robot dynamics).
     """
 
     def __init__(self, cfg: dict, num_envs: int | None = None, evaluation: bool = False):
-        super().__init__(cfg, num_envs, rows=cfg["task"]["num_agents"])
+        super().__init__(cfg, num_envs, rows=cfg["task"]["num_agents"], evaluation=evaluation)
         self.action_scale = torch.tensor(cfg["level"]["action_scale"], dtype=torch.float32)
         self.num_actions = len(self.action_scale)  # (vx, vy, yaw rate)
         self.subgoal_distance = torch.zeros(self.num_envs)

@@ -36,7 +36,7 @@ class NavHighPushEnv(HighPushEnv):
         self.robot_goal_xy = torch.zeros(E, A, 2)  # filled by reset()
         goto = cfg["level"]["goto"]
         self.goto_limits = torch.tensor(goto["limits"], dtype=torch.float32)
-        super().__init__(cfg, None, num_envs, planner)
+        super().__init__(cfg, None, num_envs, planner, evaluation)
 
     @staticmethod
     def policy_rows(cfg: dict) -> int:

@@ -23,11 +23,13 @@ class PushEnv(EnvCore):
         num_envs: overrides `cfg["num_envs"]` (eval and bench use their own counts).
         rows: policy rows per env.
         decision_steps: simulation steps per policy step (the high level's decisions hold several).
+        evaluation: an evaluation env; a training env draws the robots' dynamics anew at every episode start where
+            the backend has a `randomize` block (the tracker's `vary`).
     """
 
     state: PushState
 
-    def __init__(self, cfg: dict, num_envs: int | None, rows: int, decision_steps: int = 1):
+    def __init__(self, cfg: dict, num_envs: int | None, rows: int, decision_steps: int = 1, evaluation: bool = False):
         self.validate(cfg)
         task = cfg["task"]
         E = num_envs or cfg["num_envs"]
@@ -45,6 +47,19 @@ class PushEnv(EnvCore):
         self.subgoal_xy = torch.zeros(E, 2)
         self.obstacles = torch.zeros(E, self.num_obstacles, 5)  # (x, y, yaw, size x, size y) of each block
         self.obstacle_corners = torch.zeros(E, self.num_obstacles, 4, 2)  # their footprints, fixed per episode
+        self.varied = not evaluation and bool(cfg["lowlevel"].get("randomize"))
+        self.dynamics_rng = np.random.default_rng(int(cfg["seed"]))
+
+    def seed(self, seed: int) -> None:
+        """Reseed the start draws, the robots' dynamics included."""
+        super().seed(seed)
+        self.dynamics_rng = np.random.default_rng(int(seed))
+
+    def reset(self, ids: np.ndarray) -> None:
+        """Start new episodes in envs `ids`; in training, with robot dynamics drawn anew (`lowlevel.randomize`)."""
+        if self.varied and len(ids):
+            self.lowlevel.vary(self.sim.batch, ids, self.dynamics_rng)
+        super().reset(ids)
 
     def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
         """Place the obstacles (n, K, 5) of envs `ids`, in the simulation and in the env's geometry."""

@@ -99,6 +99,25 @@ class Tracker:
         world = np.concatenate([rotate(cmd[..., :2], yaw), cmd[..., 2:3]], -1)
         ctrl[:, self.ctrl_idx] = world
 
+    def vary(self, batch, ids: np.ndarray, rng: np.random.Generator) -> None:
+        """Draw the robots' `lag`, `yaw_lag` and `max_force` of envs `ids` uniformly from `randomize`'s ranges (one
+        draw per robot) and write them into the batch's per-env actuator gains and force limits."""
+        ranges = self.cfg["randomize"]
+        n, A = len(ids), self.ctrl_idx.shape[0]
+
+        def draw(key: str) -> np.ndarray:
+            return rng.uniform(*ranges.get(key) or [self.cfg[key]] * 2, size=(n, A))
+
+        lag, yaw_lag, force = draw("lag"), draw("yaw_lag"), draw("max_force")
+        gain, bias, limit = (
+            batch.expand(name) for name in ("actuator_gainprm", "actuator_biasprm", "actuator_forcerange")
+        )
+        kv = np.stack([self.cfg["mass"] / lag, self.cfg["mass"] / lag, self.yaw_inertia / yaw_lag], -1)  # (n, A, 3)
+        rows = ids[:, None, None]
+        gain[rows, self.ctrl_idx, 0] = kv
+        bias[rows, self.ctrl_idx, 2] = -kv
+        limit[rows, self.ctrl_idx[:, :2], 0], limit[rows, self.ctrl_idx[:, :2], 1] = -force[..., None], force[..., None]
+
     def place(self, qpos: np.ndarray, qvel: np.ndarray, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
         """Put the robots of envs `ids` at `xy` (n, A, 2) with headings `yaw` (n, A), at rest."""
         qpos[np.ix_(ids, self.qpos_idx[:, 0])] = xy[..., 0]

@@ -2,7 +2,8 @@
 evaluation time, in core-hours and in hours of the machine that ran them.
 
 Each table counts a stage once, however many of its jobs use it; tables that share stages (the main table and the
-scalability study) each count them, so their costs do not add up. Training time is the PPO iterations' time as
+scalability study) each count them, so their costs do not add up. What a table adds after the others, its shared
+stages already trained, is given beside (`cost_after`). Training time is the PPO iterations' time as
 rsl-rl measures it (`Perf/collection_time` + `Perf/learning_time` in `metrics.mcap`), each iteration once: what an
 uninterrupted run costs, without the iterations a cut run repeats after resuming. It is multiplied by the stage's
 MuJoCo threads. Evaluation time is what a job spent after training (its evaluations and learning curve,
@@ -139,6 +140,22 @@ def cost_by(results: list[dict], key: str, cores: int) -> dict[str, float]:
     return parts
 
 
+def cost_after(results: list[dict], others: list[dict], cores: int) -> dict | None:
+    """What the jobs' `results` add to the jobs of other tables (`others`), in hours of the `cores`-core machine:
+    the table's cost when it runs after them, the stages it shares with them already trained (the scalability
+    study after the main table). None when they share no stage."""
+    mine = {path.resolve() for r in results for path in stage_paths(r)}
+    sharing = [r for r in others if mine & {path.resolve() for path in stage_paths(r)}]
+    if not sharing:
+        return None
+    shared = mine & {path.resolve() for r in sharing for path in stage_paths(r)}
+    stage_seconds = functools.cache(stage_core_seconds)
+    before = measured_cost(others, cores, stage_seconds)["machine_h"]
+    after = measured_cost(others + results, cores, stage_seconds)["machine_h"]
+    tables = sorted({str(r.get("table")) for r in sharing})
+    return {"tables": tables, "shared_stages": len(shared), "machine_h": round(after - before, 2)}
+
+
 def _recorded_stage_seconds(results: list[dict]) -> dict[Path, float]:
     """Stage run -> the core-seconds a job recorded for it when it finished (`stage_core_s`): the cost of a stage
     whose run is gone, as for the archived results of `mapush archive`."""
@@ -204,10 +221,18 @@ def cost_line(cost: dict) -> str:
     extra = f" ({'; '.join(notes)})" if notes else ""
     parts = cost.get("by_method") or {}
     by_method = ", ".join(f"{label} {hours:.1f}" for label, hours in parts.items())
+    after = cost.get("after")
+    shared = (
+        f"; run after the {' and '.join(after['tables'])} table's jobs ({after['shared_stages']} stages shared), "
+        f"it adds {after['machine_h']:.1f} hours"
+        if after
+        else ""
+    )
     return (
         f"Cost, measured from the runs (each stage once, each of its iterations once): training "
         f"{cost['training_core_h']:.1f} core-hours over {cost['stages']} distinct stages, evaluation "
         f"{cost['evaluation_core_h']:.1f} core-hours over {cost['jobs']} jobs{extra}: {cost['machine_h']:.1f} "
         f"hours of a {cost['cores']}-core machine with every core busy"
         + (f"; by method, in hours of that machine: {by_method}" if len(parts) > 1 else "")
+        + shared
     )

@@ -17,7 +17,7 @@ import yaml
 from mapush.config import group_file
 from mapush.experiments.archive import load_results, made_otherwise
 from mapush.report import plots
-from mapush.report.cost import cost_by, measured_cost
+from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
@@ -345,6 +345,8 @@ def write_tables(
             ]
             table.cost = measured_cost(behind)
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
+            others = [r for r in results if r["table"] != kind and r["variant"] == variant]
+            table.cost["after"] = cost_after(behind, others, table.cost["cores"])
             (out / f"{table.name}.md").write_text(markdown(table))
             (out / f"{table.name}.tex").write_text(latex(table))
             (out / f"{table.name}.csv").write_text(csv_text(table))
