@@ -55,6 +55,12 @@ def test_unknown_key_exits_2_with_one_line_naming_it(train_bad, override, unknow
     assert_bad_input(train_bad(override), f"'{unknown}'")
 
 
+def test_a_randomized_range_that_is_not_one(train_bad):
+    assert_bad_input(
+        train_bad("lowlevel.randomize.lag=[0.3,0.1]"), "lowlevel.randomize.lag=[0.3, 0.1]", "0 < low <= high"
+    )
+
+
 @pytest.mark.parametrize("num_agents", [40, 0])
 def test_agent_count_that_does_not_fit_the_spawn_ring(train_bad, num_agents):
     # cuboid ring r = 1.2 m, robots >= 0.75 m apart: at most 9

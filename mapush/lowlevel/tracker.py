@@ -11,9 +11,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from mapush.errors import BadInput
 from mapush.planning.geometry import rotate
 
 ROBOT_BODY = "base"
+RANDOMIZED = ("lag", "yaw_lag", "max_force")
+"""The keys `randomize` may draw anew per robot in training (`Tracker.vary`)."""
 JOINTS = ("x", "y", "yaw")
 """Joint names inside one robot, in qpos order: world-x slide, world-y slide, yaw hinge."""
 
@@ -25,7 +28,16 @@ class Tracker:
 
     @staticmethod
     def check(cfg: dict) -> None:
-        """Nothing to check before building: the tracker needs no files."""
+        """BadInput unless every `randomize` range is a known key with 0 < low <= high (the tracker needs no files)."""
+        for key, bounds in (cfg.get("randomize") or {}).items():
+            if key not in RANDOMIZED:
+                raise BadInput(f"lowlevel.randomize.{key} is not drawn; valid: {', '.join(RANDOMIZED)}")
+            if bounds is not None and not (
+                isinstance(bounds, list | tuple) and len(bounds) == 2 and 0 < float(bounds[0]) <= float(bounds[1])
+            ):
+                raise BadInput(
+                    f"lowlevel.randomize.{key}={bounds} is not a range; valid: [low, high] with 0 < low <= high"
+                )
 
     @staticmethod
     def policy_fingerprint(cfg: dict) -> None:
