@@ -57,7 +57,7 @@ def test_unknown_key_exits_2_with_one_line_naming_it(train_bad, override, unknow
 
 def test_a_randomized_range_that_is_not_one(train_bad):
     assert_bad_input(
-        train_bad("lowlevel.randomize.lag=[0.3,0.1]"), "lowlevel.randomize.lag=[0.3, 0.1]", "0 < low <= high"
+        train_bad("lowlevel.randomize={lag:[0.3,0.1]}"), "lowlevel.randomize.lag=[0.3, 0.1]", "0 < low <= high"
     )
 
 

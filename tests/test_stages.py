@@ -87,15 +87,18 @@ def test_a_field_of_the_task_on_the_sweep_command_line_reaches_every_stage():
 def test_the_identities_of_stages_already_trained_stay_as_they_were():
     # the main table's Ours cylinder cells (seed 0) were trained as these two stages (runs/sweeps/stages/<identity>)
     # on 2026-11-26, by a sweep with `task.object.friction=[0.2,0.25]` typed on its command line: the value the task
-    # now derives from the original's (the PhysX average), and before the tracker drew its robots' dynamics in
-    # training. A key added to the configs since (at its neutral default) must not make them other stages
-    before = "overrides=['lowlevel.randomize=null']"
-    assert _identities("task=cylinder", before) == {"mid": "0676bfba46653ac6", "high": "b88e5f249bda72ee"}
+    # now derives from the original's (the PhysX average). A key added to the configs since (at its neutral
+    # default) must not make them other stages, nor retrain them
+    assert _identities("task=cylinder") == {"mid": "0676bfba46653ac6", "high": "b88e5f249bda72ee"}
     assert _identities("task=cylinder", "overrides=['train.init_from=runs/x']")["mid"] != "0676bfba46653ac6"
-    # since 2026-11-26, 15:15 the main table's sweep trains them with the drawn dynamics, as these stages
-    assert _identities("task=cylinder") == {"mid": "715a64485074ce84", "high": "b0968d2256f091fc"}
-    other = _identities("task=cylinder", "overrides=['lowlevel.randomize.lag=[0.1,0.4]']")  # another range
-    assert other["mid"] != "715a64485074ce84" and other["high"] != "b0968d2256f091fc"
+    # robot dynamics drawn in training: the stages the main table's sweep trained with them (2026-11-26, 15:15-16:30)
+    ranges = "lowlevel.randomize={lag:[0.1,0.45],yaw_lag:[0.02,0.4],max_force:[20.0,45.0]}"
+    assert _identities("task=cuboid", f"overrides=['{ranges}']") == {
+        "mid": "c2bc999e7f09d7ec",
+        "high": "fb88ed241aef2240",
+    }
+    other = _identities("task=cuboid", "overrides=['lowlevel.randomize={lag:[0.1,0.4]}']")  # another range
+    assert other["mid"] not in ("c2bc999e7f09d7ec", _identities("task=cuboid")["mid"])
 
 
 def test_a_sweep_stage_writes_a_checkpoint_by_every_mark_of_its_learning_curve():
