@@ -73,10 +73,7 @@ class PushEnv(EnvCore):
         """Check a config before anything is built or written: low-level backend, agent count, the terms."""
         if cfg["lowlevel"]["name"] not in BACKENDS:
             raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
-        backend = BACKENDS[cfg["lowlevel"]["name"]]
-        backend.check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
-        if cfg["lowlevel"].get("randomize") and not hasattr(backend, "vary"):
-            raise BadInput(f"lowlevel={cfg['lowlevel']['name']} draws no robot dynamics; valid: lowlevel=tracker")
+        BACKENDS[cfg["lowlevel"]["name"]].check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
         check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
         cls.check_terms(cfg)
 

@@ -48,6 +48,11 @@ class Tracker:
         length, width, _height = cfg["size"]
         self.yaw_inertia = cfg["mass"] * (length**2 + width**2) / 12.0
 
+    def gains(self, lag, yaw_lag) -> tuple:
+        """The velocity actuators' gains (x, y, yaw) that make a robot follow its commands with these lags, s:
+        mass / lag on the slides, Izz / yaw_lag on the hinge (floats or arrays alike)."""
+        return self.cfg["mass"] / lag, self.cfg["mass"] / lag, self.yaw_inertia / yaw_lag
+
     def robot_spec(self, rgba: tuple[float, float, float, float] = (0.2, 0.4, 0.9, 1.0)) -> mujoco.MjSpec:
         """One robot as a standalone spec, to be attached by prefix (`robot0/`, `robot1/`, ...)."""
         length, width, height = self.cfg["size"]
@@ -77,11 +82,8 @@ class Tracker:
             mass=0.0,
             rgba=[1.0, 0.8, 0.1, 1.0],
         )
-        for name, gain, limit in (
-            ("x", self.cfg["mass"] / self.cfg["lag"], self.cfg["max_force"]),
-            ("y", self.cfg["mass"] / self.cfg["lag"], self.cfg["max_force"]),
-            ("yaw", self.yaw_inertia / self.cfg["yaw_lag"], self.cfg["max_torque"]),
-        ):
+        limits = (self.cfg["max_force"], self.cfg["max_force"], self.cfg["max_torque"])
+        for name, gain, limit in zip(JOINTS, self.gains(self.cfg["lag"], self.cfg["yaw_lag"]), limits, strict=True):
             act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
             act.set_to_velocity(kv=gain)
             act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -124,11 +126,11 @@ class Tracker:
         gain, bias, limit = (
             batch.expand(name) for name in ("actuator_gainprm", "actuator_biasprm", "actuator_forcerange")
         )
-        kv = np.stack([self.cfg["mass"] / lag, self.cfg["mass"] / lag, self.yaw_inertia / yaw_lag], -1)  # (n, A, 3)
+        kv = np.stack(self.gains(lag, yaw_lag), -1)  # (n, A, 3)
         rows = ids[:, None, None]
         gain[rows, self.ctrl_idx, 0] = kv
         bias[rows, self.ctrl_idx, 2] = -kv
-        limit[rows, self.ctrl_idx[:, :2], 0], limit[rows, self.ctrl_idx[:, :2], 1] = -force[..., None], force[..., None]
+        limit[rows, self.ctrl_idx[:, :2]] = np.stack([-force, force], -1)[:, :, None, :]  # both slides
 
     def place(self, qpos: np.ndarray, qvel: np.ndarray, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
         """Put the robots of envs `ids` at `xy` (n, A, 2) with headings `yaw` (n, A), at rest."""

@@ -145,14 +145,16 @@ def cost_after(results: list[dict], others: list[dict], cores: int) -> dict | No
     the table's cost when it runs after them, the stages it shares with them already trained (the scalability
     study after the main table). None when they share no stage."""
     mine = {path.resolve() for r in results for path in stage_paths(r)}
-    sharing = [r for r in others if mine & {path.resolve() for path in stage_paths(r)}]
-    if not sharing:
+    shared_by: dict[str, set[Path]] = {}  # table -> the stages of `results` it shares
+    for r in others:
+        shared_by.setdefault(str(r.get("table")), set()).update(mine & {p.resolve() for p in stage_paths(r)})
+    shared = set().union(*shared_by.values())
+    if not shared:
         return None
-    shared = mine & {path.resolve() for r in sharing for path in stage_paths(r)}
     stage_seconds = functools.cache(stage_core_seconds)
     before = measured_cost(others, cores, stage_seconds)["machine_h"]
     after = measured_cost(others + results, cores, stage_seconds)["machine_h"]
-    tables = sorted({str(r.get("table")) for r in sharing})
+    tables = sorted(table for table, paths in shared_by.items() if paths)
     return {"tables": tables, "shared_stages": len(shared), "machine_h": round(after - before, 2)}
 
 
