@@ -4,8 +4,9 @@ Runs `mapush eval`'s first-episode rollout (one episode in each of N envs, seed 
 watches every inner step of each env's first episode. At the first step where a robot tilts beyond the high
 level's `robot_tilt` limit, it records that robot's distances (centre to centre) to the object, to its nearest
 teammate and to the nearest obstacle block, and whether its command was at the mid level's full scale on every
-axis. It prints the exception shares of the evaluation and the quartiles of those distances, so that a reader
-can tell falls while pushing or crowding from falls at walls or blocks.
+axis (against how often any robot's command is, over all steps of the first episodes). It prints the exception
+shares of the evaluation and the quartiles of those distances, so that a reader can tell falls while pushing or
+crowding from falls at walls or blocks.
 
     python tools/legged_falls.py RUN_DIR/model_<it>.pt [overrides] [--episodes N]
 """
@@ -27,6 +28,7 @@ class FallWatch:
 
     def __init__(self, max_tilt: float):
         self.max_tilt, self.falls, self.seen, self.ended = max_tilt, [], None, None
+        self.robot_steps, self.saturated_steps = 0, 0  # over every robot and step of the first episodes
 
     def watch(self, *args, **kwargs) -> None:
         pass
@@ -37,6 +39,9 @@ class FallWatch:
             self.seen = torch.zeros(env.num_envs, dtype=torch.bool)
             self.ended = torch.zeros(env.num_envs, dtype=torch.bool)
         fell = (s.robot_tilt > self.max_tilt).any(1) & ~self.seen & ~self.ended
+        saturated = (commands.abs() >= 0.99 * env.mid.action_scale).all(-1)  # (E, A)
+        self.robot_steps += int((~self.ended).sum()) * env.num_agents
+        self.saturated_steps += int(saturated[~self.ended].sum())
         self.seen |= fell
         self.ended |= done  # only first episodes count, as in the evaluation
         for e in fell.nonzero().flatten().tolist():
@@ -49,7 +54,7 @@ class FallWatch:
                     "object_m": float((s.robot_xy[e, a] - s.object_xy[e]).norm()),
                     "teammate_m": float(teammates.min()) if len(teammates) else float("nan"),
                     "obstacle_m": float(blocks.min()) if len(blocks) else float("nan"),
-                    "saturated_command": bool((commands[e, a].abs() >= 0.99 * env.mid.action_scale).all()),
+                    "saturated_command": bool(saturated[e, a]),
                 }
             )
 
@@ -71,7 +76,8 @@ def main() -> None:
         values = np.array([f[key] for f in watch.falls])
         print(f"  {key:11s} " + " / ".join(f"{q:.2f}" for q in np.nanpercentile(values, [25, 50, 75])))
     saturated = np.mean([f["saturated_command"] for f in watch.falls])
-    print(f"  commands at full scale on all three axes: {saturated:.2f} of the falls")
+    overall = watch.saturated_steps / max(watch.robot_steps, 1)
+    print(f"  commands at full scale on all three axes: {saturated:.2f} of the falls, {overall:.2f} of all robot-steps")
 
 
 if __name__ == "__main__":
