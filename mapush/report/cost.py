@@ -147,15 +147,15 @@ def cost_after(results: list[dict], others: list[dict], cores: int) -> dict | No
     mine = {path.resolve() for r in results for path in stage_paths(r)}
     shared_by: dict[str, set[Path]] = {}  # table -> the stages of `results` it shares
     for r in others:
-        shared_by.setdefault(str(r.get("table")), set()).update(mine & {p.resolve() for p in stage_paths(r)})
-    shared = set().union(*shared_by.values())
-    if not shared:
+        if common := mine & {p.resolve() for p in stage_paths(r)}:
+            shared_by.setdefault(str(r.get("table")), set()).update(common)
+    if not shared_by:
         return None
+    shared = set().union(*shared_by.values())
     stage_seconds = functools.cache(stage_core_seconds)
     before = measured_cost(others, cores, stage_seconds)["machine_h"]
     after = measured_cost(others + results, cores, stage_seconds)["machine_h"]
-    tables = sorted(table for table, paths in shared_by.items() if paths)
-    return {"tables": tables, "shared_stages": len(shared), "machine_h": round(after - before, 2)}
+    return {"tables": sorted(shared_by), "shared_stages": len(shared), "machine_h": round(after - before, 2)}
 
 
 def _recorded_stage_seconds(results: list[dict]) -> dict[Path, float]:
