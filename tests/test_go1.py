@@ -318,6 +318,61 @@ def test_a_turn_fraction_of_the_commands_turns_on_the_spot(cfg_for):
     assert commands[on_the_spot, 2].abs().mean() > 0.4  # they still turn, drawn from [-1, 1] rad/s
 
 
+def test_without_a_load_fraction_the_scene_holds_the_go1_alone(cfg_for):
+    from mapush.envs.low import LocomotionEnv
+
+    env = LocomotionEnv(cfg_for("level=low"), num_envs=2)
+    assert env.model.nq == 7 + 12 and env.loads == []  # runs trained before loads simulate what they trained on
+
+
+def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(cfg_for):
+    from mapush.envs.low import PARKED_XY, LocomotionEnv
+
+    cfg = cfg_for("level=low", "level.randomize.load.fraction=1.0", "level.randomize.push_velocity=0.0")
+    load = cfg["level"]["randomize"]["load"]
+    env = LocomotionEnv(cfg, num_envs=16)
+    qpos, model = env.sim.qpos, env.model
+    trunk_xy = qpos[:, :2]
+    placed = np.zeros(16, dtype=int)
+    reaches = (math.hypot(*load["box_size_m"][:2]) / 2, load["cylinder_size_m"][0])  # box corners, cylinder side
+
+    def where(body) -> np.ndarray:
+        """(E, 2) the load's planar position: its free joint's qpos."""
+        return qpos[:, model.jnt_qposadr[body.jntadr[0]] :][:, :2]
+
+    for body, reach in zip(env.loads, reaches, strict=True):
+        xy = where(body)
+        here = np.linalg.norm(xy - PARKED_XY, axis=1) > 1.0
+        placed += here
+        for e in np.flatnonzero(here):
+            ahead = np.zeros(3)  # the command's planar velocity, rotated into the world by MuJoCo (the oracle)
+            mujoco.mju_rotVecQuat(ahead, np.array([*env.commands[e, :2].tolist(), 0.0]), qpos[e, 3:7])
+            offset = xy[e] - trunk_xy[e]
+            gap = np.linalg.norm(offset) - reach - go1.TRUNK_SIZE[0] / 2
+            assert load["distance_m"][0] - 1e-6 <= gap <= load["distance_m"][1] + 1e-6
+            if np.linalg.norm(ahead[:2]) >= 0.1:  # a command to stand or turn points nowhere: any direction
+                assert np.dot(offset, ahead[:2]) / np.linalg.norm(offset) / np.linalg.norm(ahead[:2]) > 0.999
+    assert (placed == 1).all()  # every episode has exactly one load, box or cylinder; the other is parked
+    # its drag: held still by half of mu m g, slid by 1.5 times it (MuJoCo's contact friction, the larger of two)
+    friction, mass = env.sim.batch.expand("geom_friction"), env.sim.batch.expand("body_mass")
+    floor = model.geom("floor").id
+    start, moved = {}, {}
+    for share in (0.5, 1.5):
+        env.reset(np.arange(16))
+        for body in env.loads:
+            start[body.id] = where(body).copy()
+            drag = (
+                mass[:, body.id] * 9.81 * np.maximum(friction[:, floor, 0], friction[:, model.body_geomadr[body.id], 0])
+            )
+            assert ((drag > load["resistance_n"][0] - 1e-6) & (drag < load["resistance_n"][1] + 1e-6)).all()
+            away = start[body.id] - trunk_xy
+            env.applied[:, body.id, :2] = share * drag[:, None] * away / np.linalg.norm(away, axis=1, keepdims=True)
+        for _ in range(25):  # 0.5 s; the robot stands in its default pose, clear of the load
+            env.sim.advance()
+        moved[share] = np.concatenate([np.linalg.norm(where(b) - start[b.id], axis=1) for b in env.loads])
+    assert moved[0.5].max() < 0.01 and moved[1.5].min() > 0.05
+
+
 @pytest.mark.parametrize(
     ("command", "error", "bound"),
     [

@@ -15,7 +15,9 @@ ground, undisturbed).
 
 Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, a random push (a
 change of the trunk's horizontal velocity) every `push_interval_s`, and optionally a held horizontal force on the
-trunk (`force_n`: the load of pushing an object or being leaned on). A fall (trunk too low, tilted too far, or
+trunk (`force_n`: the load of pushing an object or being leaned on). Optionally (`randomize.load`) a free box or
+cylinder of the pushing tasks' size stands ahead of the robot, along its first command, so it learns to walk into
+and shove an object it cannot see, as it must under the pushing levels. A fall (trunk too low, tilted too far, or
 touching the ground) ends the episode as an exception; reaching the timeout is a success.
 """
 
@@ -40,9 +42,38 @@ TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")
 """The tracking errors (methods of `LocomotionEnv`) averaged over each episode and reported by its evaluation."""
 
 
+LOAD_BODIES = {"box": "load_box", "cylinder": "load_cylinder"}
+"""The free bodies a run with `randomize.load` adds, by shape; each episode with a load uses one, the other waits
+at `PARKED_XY`."""
+PARKED_XY = (100.0, 100.0)
+"""m; where a load not in use waits, beyond any robot's reach in an episode."""
+LOAD_GEOM_FRICTION = 0.1
+"""A load's own sliding friction, below the floor's and the Go1's: MuJoCo takes the larger of a contact's two, so
+the floor sets the load's drag (`resistance_n` picks its mass) and the robot's 1.0 its grip, as in a pushing scene."""
+
+
 def locomotion_model(cfg: dict) -> mujoco.MjModel:
-    """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep."""
-    return standalone_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], cfg["sim"]["timestep"]).compile()
+    """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep, and the loads where a run
+    asks for them (`load_fractions`)."""
+    spec = standalone_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], cfg["sim"]["timestep"])
+    load = cfg["level"]["randomize"].get("load")  # runs made before the key have none
+    if any(load_fractions(cfg)):
+        box, cylinder = load["box_size_m"], load["cylinder_size_m"]
+        shapes = {
+            "box": (mujoco.mjtGeom.mjGEOM_BOX, [box[0] / 2, box[1] / 2, box[2] / 2], box[2] / 2),
+            "cylinder": (mujoco.mjtGeom.mjGEOM_CYLINDER, [cylinder[0], cylinder[1] / 2, 0.0], cylinder[1] / 2),
+        }
+        for shape, (kind, size, half_height) in shapes.items():
+            body = spec.worldbody.add_body(name=LOAD_BODIES[shape], pos=[*PARKED_XY, half_height])
+            body.add_freejoint()
+            body.add_geom(type=kind, size=size, mass=1.0, friction=[LOAD_GEOM_FRICTION, 0.005, 0.0001])
+    return spec.compile()
+
+
+def load_fractions(cfg: dict) -> tuple[float, float]:
+    """The share of training and of evaluation episodes that start with a load ahead (0, 0 without the key)."""
+    load = cfg["level"]["randomize"].get("load") or {}
+    return float(load.get("fraction", 0.0)), float(cfg["level"].get("eval_load_fraction", 0.0))
 
 
 @dataclass
@@ -75,6 +106,7 @@ class LocomotionEnv(EnvCore):
         self.command_ranges = level["eval_commands" if evaluation else "commands"]
         self.push_velocity = level["eval_push_velocity"] if evaluation else level["randomize"]["push_velocity"]
         self.force_n = level["eval_force_n"] if evaluation else level["randomize"]["force_n"]
+        self.load_fraction = load_fractions(cfg)[1 if evaluation else 0]
         self.num_actions = 12
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
         self.action_limit = float(self.robot["action_clip"])
@@ -88,6 +120,8 @@ class LocomotionEnv(EnvCore):
         self.trunk_geom = self.model.geom("trunk_box").id
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
+        self.robot_qpos, self.robot_qvel = sim.qpos[:, : 7 + 12], sim.qvel[:, : 6 + 12]  # views: the loads follow
+        self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if any(load_fractions(cfg)) else []
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
         self.commands = torch.zeros(E, 3)
@@ -117,6 +151,11 @@ class LocomotionEnv(EnvCore):
         mass = batch.expand("body_mass")
         trunk = self.model.body(go1.ROOT_BODY).id
         mass[:, trunk] = self.model.body_mass[trunk] + self.rng.uniform(*rand["added_mass"], size=E)
+        inertia = batch.expand("body_inertia") if self.loads else None
+        for body in self.loads:  # the mass whose drag on this env's floor is U(resistance_n) newtons
+            resistance = self.rng.uniform(*rand["load"]["resistance_n"], size=E)
+            mass[:, body.id] = resistance / (np.maximum(mu, LOAD_GEOM_FRICTION) * 9.81)
+            inertia[:, body.id] = np.outer(mass[:, body.id] / body.mass[0], body.inertia)  # a uniform solid's
         batch.set_const()
 
     # ----------------------------------------------------------------------------------------------------------
@@ -124,23 +163,47 @@ class LocomotionEnv(EnvCore):
         """Standing pose (joint angles jittered), random heading, new commands."""
         n, sim = len(ids), self.sim
         sim.restart(ids)
-        qpos = np.zeros((n, self.model.nq))
+        qpos = np.zeros((n, 7 + 12))
         qpos[:, 2] = go1.standing_height() + 0.02
         yaw = self.rng.uniform(-math.pi, math.pi, size=n)
         qpos[:, 3], qpos[:, 6] = np.cos(yaw / 2), np.sin(yaw / 2)
         qpos[:, 7:] = self.default_pose * self.rng.uniform(*self.cfg["level"]["randomize"]["joint_scale"], size=(n, 12))
-        sim.qpos[ids] = qpos
+        sim.qpos[ids, : 7 + 12] = qpos
         sim.qvel[ids] = 0.0
         sim.ctrl[ids] = self.default_pose
         self.applied[ids, self.trunk] = 0.0
         self.force_steps_left[ids] = 0
-        sim.forward(ids)
         self.commands[t] = self._sample_commands(n)
+        if self.loads:
+            self._place_loads(ids, yaw, self.commands[t].numpy())
+        sim.forward(ids)
         self.actions[t] = 0.0
         self.last_actions[t] = 0.0
         self.air_time[t] = 0.0
         for sums in self.tracking_error_sums.values():
             sums[t] = 0.0
+
+    def _place_loads(self, ids: np.ndarray, yaw: np.ndarray, commands: np.ndarray) -> None:
+        """A `load_fraction` of the episodes get one load, box or cylinder, at a random yaw, U(distance_m) ahead of
+        the trunk (to the cylinder's side, or the circle round the box's corners) along the commanded velocity (any
+        way for a command to stand or turn). The other load, and both in the other episodes, wait parked."""
+        load, n = self.cfg["level"]["randomize"]["load"], len(ids)
+        heading = yaw + np.arctan2(commands[:, 1], commands[:, 0])
+        still = np.linalg.norm(commands[:, :2], axis=1) < 0.1
+        heading[still] = self.rng.uniform(-math.pi, math.pi, size=int(still.sum()))
+        used = np.where(self.rng.random(n) < self.load_fraction, self.rng.integers(len(self.loads), size=n), -1)
+        gap = self.rng.uniform(*load["distance_m"], size=n)
+        spin = self.rng.uniform(-math.pi, math.pi, size=n)
+        reach = {"box": math.hypot(*load["box_size_m"][:2]) / 2, "cylinder": load["cylinder_size_m"][0]}
+        for k, (shape, body) in enumerate(zip(LOAD_BODIES, self.loads, strict=True)):
+            address = self.model.jnt_qposadr[body.jntadr[0]]
+            here = used == k
+            centre = go1.TRUNK_SIZE[0] / 2 + gap + reach[shape]  # a box's corner at most `gap` away, its side further
+            xy = np.where(here[:, None], centre[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1), PARKED_XY)
+            pose = np.zeros((n, 7))
+            pose[:, :2], pose[:, 2] = xy, self.model.body_pos[body.id][2]
+            pose[:, 3], pose[:, 6] = np.cos(spin / 2), np.sin(spin / 2)
+            self.sim.qpos[ids, address : address + 7] = pose
 
     def _sample_commands(self, n: int) -> torch.Tensor:
         spec = self.command_ranges
@@ -156,7 +219,7 @@ class LocomotionEnv(EnvCore):
 
     def _read_state(self) -> None:
         """Body-frame velocities, gravity direction, torques, foot contacts and speeds (`LocomotionState`)."""
-        qpos, qvel = self.sim.qpos, self.sim.qvel
+        qpos, qvel = self.robot_qpos, self.robot_qvel
         quat = qpos[:, 3:7]
         down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), (self.num_envs, 3))
         feet = torch.from_numpy(self.geom_xpos[:, self.feet].astype(np.float32))  # (E, 4, 3)
@@ -205,7 +268,7 @@ class LocomotionEnv(EnvCore):
     def scene_frame(self) -> dict[str, torch.Tensor]:
         """What a viewer draws of every env now (before resets): the Go1's geom poses, its trunk, and its commanded
         and actual planar velocity in the world frame (`Go1Layout.scene`)."""
-        qpos, qvel = self.sim.qpos, self.sim.qvel
+        qpos, qvel = self.robot_qpos, self.robot_qvel
         quat = qpos[:, 3:7]
         bodies = self.model.geom_bodyid[self.drawn_geoms]
         command = np.concatenate([self.commands[:, :2].numpy(), np.zeros((self.num_envs, 1))], -1)
@@ -286,7 +349,7 @@ class LocomotionEnv(EnvCore):
 def proprioceptive_observation(env) -> torch.Tensor:
     """The Go1's own senses (`go1.proprioception`, 45 numbers), as the go1 backend computes them: (E, 45)."""
     sensed = proprioception(
-        env.sim.qpos, env.sim.qvel, env.commands.numpy(), env.actions.numpy(), env.default_pose
+        env.robot_qpos, env.robot_qvel, env.commands.numpy(), env.actions.numpy(), env.default_pose
     ).astype(np.float32)
     return torch.from_numpy(sensed)
 
