@@ -16,9 +16,10 @@ ground, undisturbed).
 Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, a random push (a
 change of the trunk's horizontal velocity) every `push_interval_s`, and optionally a held horizontal force on the
 trunk (`force_n`: the load of pushing an object or being leaned on). Optionally (`randomize.load`) a free box or
-cylinder of the pushing tasks' size stands ahead of the robot, along its first command, so it learns to walk into
-and shove an object it cannot see, as it must under the pushing levels. A fall (trunk too low, tilted too far, or
-touching the ground) ends the episode as an exception; reaching the timeout is a success.
+cylinder of the pushing tasks' size stands ahead of the robot, along its first command, for it to walk into and
+shove unseen, as it must under the pushing levels (`eval_load_fraction` measures a policy doing so). A fall
+(trunk too low, tilted too far, or touching the ground) ends the episode as an exception; reaching the timeout is a
+success.
 """
 
 from __future__ import annotations
@@ -45,6 +46,8 @@ TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")
 LOAD_BODIES = {"box": "load_box", "cylinder": "load_cylinder"}
 """The free bodies a run with `randomize.load` adds, by shape; each episode with a load uses one, the other waits
 at `PARKED_XY`."""
+ROBOT_NQ, ROBOT_NV = 7 + len(go1.JOINT_NAMES), 6 + len(go1.JOINT_NAMES)
+"""The Go1's columns of qpos and qvel (its free joint, then its joints), which come first: any load follows."""
 PARKED_XY = (100.0, 100.0)
 """m; where a load not in use waits, beyond any robot's reach in an episode."""
 LOAD_GEOM_FRICTION = 0.1
@@ -120,7 +123,7 @@ class LocomotionEnv(EnvCore):
         self.trunk_geom = self.model.geom("trunk_box").id
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
-        self.robot_qpos, self.robot_qvel = sim.qpos[:, : 7 + 12], sim.qvel[:, : 6 + 12]  # views: the loads follow
+        self.robot_qpos, self.robot_qvel = sim.qpos[:, :ROBOT_NQ], sim.qvel[:, :ROBOT_NV]  # views
         self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if any(load_fractions(cfg)) else []
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
@@ -163,12 +166,12 @@ class LocomotionEnv(EnvCore):
         """Standing pose (joint angles jittered), random heading, new commands."""
         n, sim = len(ids), self.sim
         sim.restart(ids)
-        qpos = np.zeros((n, 7 + 12))
+        qpos = np.zeros((n, ROBOT_NQ))
         qpos[:, 2] = go1.standing_height() + 0.02
         yaw = self.rng.uniform(-math.pi, math.pi, size=n)
         qpos[:, 3], qpos[:, 6] = np.cos(yaw / 2), np.sin(yaw / 2)
         qpos[:, 7:] = self.default_pose * self.rng.uniform(*self.cfg["level"]["randomize"]["joint_scale"], size=(n, 12))
-        sim.qpos[ids, : 7 + 12] = qpos
+        sim.qpos[ids, :ROBOT_NQ] = qpos
         sim.qvel[ids] = 0.0
         sim.ctrl[ids] = self.default_pose
         self.applied[ids, self.trunk] = 0.0
