@@ -59,7 +59,7 @@ RULES: dict[str, Rule] = {
     "level.randomize.load.fraction": _fraction(),
     "level.randomize.load.box_size_m": _positive("size in m"),
     "level.randomize.load.cylinder_size_m": _positive("size in m"),
-    "level.randomize.load.resistance_n": _at_least(0.0, " N"),
+    "level.randomize.load.resistance_n": _positive("force in N"),
     "level.randomize.load.distance_m": _at_least(0.0, " m"),
     "level.eval_load_fraction": _fraction(),
     "algo.num_steps_per_env": _count(1),

@@ -340,9 +340,9 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
         """(E, 2) the load's planar position: its free joint's qpos."""
         return qpos[:, model.jnt_qposadr[body.jntadr[0]] :][:, :2]
 
-    for body, reach in zip(env.loads, reaches, strict=True):
+    for body, reach, parked in zip(env.loads, reaches, PARKED_XY.values(), strict=True):
         xy = where(body)
-        here = np.linalg.norm(xy - PARKED_XY, axis=1) > 1.0
+        here = np.linalg.norm(xy - parked, axis=1) > 1.0
         placed += here
         for e in np.flatnonzero(here):
             ahead = np.zeros(3)  # the command's planar velocity, rotated into the world by MuJoCo (the oracle)

@@ -45,11 +45,11 @@ TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")
 
 LOAD_BODIES = {"box": "load_box", "cylinder": "load_cylinder"}
 """The free bodies a run with `randomize.load` adds, by shape; each episode with a load uses one, the other waits
-at `PARKED_XY`."""
+at its `PARKED_XY`."""
 ROBOT_NQ, ROBOT_NV = 7 + len(go1.JOINT_NAMES), 6 + len(go1.JOINT_NAMES)
 """The Go1's columns of qpos and qvel (its free joint, then its joints), which come first: any load follows."""
-PARKED_XY = (100.0, 100.0)
-"""m; where a load not in use waits, beyond any robot's reach in an episode."""
+PARKED_XY = {"box": (100.0, 100.0), "cylinder": (100.0, -100.0)}
+"""m; where each load waits when not in use, beyond any robot's reach in an episode and apart from the other."""
 LOAD_GEOM_FRICTION = 0.1
 """A load's own sliding friction, below the floor's and the Go1's: MuJoCo takes the larger of a contact's two, so
 the floor sets the load's drag (`resistance_n` picks its mass) and the robot's 1.0 its grip, as in a pushing scene."""
@@ -67,7 +67,7 @@ def locomotion_model(cfg: dict) -> mujoco.MjModel:
             "cylinder": (mujoco.mjtGeom.mjGEOM_CYLINDER, [cylinder[0], cylinder[1] / 2, 0.0], cylinder[1] / 2),
         }
         for shape, (kind, size, half_height) in shapes.items():
-            body = spec.worldbody.add_body(name=LOAD_BODIES[shape], pos=[*PARKED_XY, half_height])
+            body = spec.worldbody.add_body(name=LOAD_BODIES[shape], pos=[*PARKED_XY[shape], half_height])
             body.add_freejoint()
             body.add_geom(type=kind, size=size, mass=1.0, friction=[LOAD_GEOM_FRICTION, 0.005, 0.0001])
     return spec.compile()
@@ -202,7 +202,8 @@ class LocomotionEnv(EnvCore):
             address = self.model.jnt_qposadr[body.jntadr[0]]
             here = used == k
             centre = go1.TRUNK_SIZE[0] / 2 + gap + reach[shape]  # a box's corner at most `gap` away, its side further
-            xy = np.where(here[:, None], centre[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1), PARKED_XY)
+            ahead = centre[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1)
+            xy = np.where(here[:, None], ahead, PARKED_XY[shape])
             pose = np.zeros((n, 7))
             pose[:, :2], pose[:, 2] = xy, self.model.body_pos[body.id][2]
             pose[:, 3], pose[:, 6] = np.cos(spin / 2), np.sin(spin / 2)
