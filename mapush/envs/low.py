@@ -124,7 +124,7 @@ class LocomotionEnv(EnvCore):
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
         self.robot_qpos, self.robot_qvel = sim.qpos[:, :ROBOT_NQ], sim.qvel[:, :ROBOT_NV]  # views
-        self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if any(load_fractions(cfg)) else []
+        self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if self.model.nq > ROBOT_NQ else []
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
         self.commands = torch.zeros(E, 3)
@@ -157,7 +157,7 @@ class LocomotionEnv(EnvCore):
         inertia = batch.expand("body_inertia") if self.loads else None
         for body in self.loads:  # the mass whose drag on this env's floor is U(resistance_n) newtons
             resistance = self.rng.uniform(*rand["load"]["resistance_n"], size=E)
-            mass[:, body.id] = resistance / (np.maximum(mu, LOAD_GEOM_FRICTION) * 9.81)
+            mass[:, body.id] = resistance / (np.maximum(mu, LOAD_GEOM_FRICTION) * -self.model.opt.gravity[2])
             inertia[:, body.id] = np.outer(mass[:, body.id] / body.mass[0], body.inertia)  # a uniform solid's
         batch.set_const()
 
