@@ -1,7 +1,8 @@
 """What the numbers of a config may be: every command checks its composed config here before it builds anything.
 
-A value of the wrong type or outside its range (a zero time step, a negative learning rate, an object with no
-area) is one BadInput naming the key, the value and what is valid, before any run dir or result is written.
+A value of the wrong type or outside its range (a zero time step, a negative learning rate, a switch that is not
+true or false, an object with no area) is one BadInput naming the key, the value and what is valid, before any run
+dir or result is written.
 Keys a config lacks (the low level has no success distance) are skipped.
 """
 
@@ -37,6 +38,10 @@ def _fraction(low_open: bool = False) -> Rule:
     )
 
 
+def _flag() -> Rule:
+    return bool, lambda v: True, "true or false"
+
+
 def _even_pixels() -> Rule:
     return int, lambda v: v >= 16 and v % 2 == 0, "an even integer >= 16 (px; yuv420p halves the chroma)"
 
@@ -52,10 +57,12 @@ RULES: dict[str, Rule] = {
     "sim.nthread": _count(0),
     "sim.arena_size": _positive("size in m"),
     "sim.floor_friction": _at_least(0.0),
+    "sim.robot_contacts": _flag(),
     "task.collision_distance": _at_least(0.0, " m"),
     "level.episode_length_s": _positive("number of seconds"),
     "level.success_distance": _positive("distance in m"),
     "level.decision_steps": _count(1),
+    "level.follow_path": _flag(),
     "level.randomize.load.fraction": _fraction(),
     "level.randomize.load.box_size_m": _positive("size in m"),
     "level.randomize.load.cylinder_size_m": _positive("size in m"),
@@ -107,6 +114,10 @@ def check_config(cfg: DictConfig | dict) -> None:
 
 
 def _check_value(key: str, value, kind: type, test: Callable, valid: str) -> None:
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")
+        return
     numeric = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
     if not numeric or not math.isfinite(value) or not test(value):
         raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")

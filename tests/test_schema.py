@@ -28,7 +28,8 @@ def test_every_task_and_level_as_shipped_passes():
 @pytest.mark.parametrize(
     ("key", "value"),
     [("sim.timestep", 0.0), ("sim.decimation", 0), ("sim.decimation", 2.5), ("algo.algorithm.lam", 1.01),
-     ("algo.algorithm.learning_rate", float("nan")), ("num_envs", True), ("eval.episodes", "3")],
+     ("algo.algorithm.learning_rate", float("nan")), ("num_envs", True), ("eval.episodes", "3"),
+     ("sim.robot_contacts", "maybe"), ("sim.robot_contacts", 0)],
 )  # fmt: skip
 def test_out_of_range_or_ill_typed(key, value):
     cfg = compose_config()

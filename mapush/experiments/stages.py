@@ -44,7 +44,7 @@ IGNORED = (
     "bench",
 )
 """Config keys that change where and how a stage runs, not what it learns."""
-UNSET_LATER_KEYS = {"train.init_from": None, "lowlevel.randomize": None}
+UNSET_LATER_KEYS = {"train.init_from": None, "lowlevel.randomize": None, "sim.robot_contacts": True}
 """Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
 stays out of the identity, so the stages trained before it existed keep theirs; set, it makes another stage."""
 STAGE_REF = "@"

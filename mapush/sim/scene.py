@@ -71,9 +71,22 @@ def build_scene(
             conaffinity=OBJECT_BITS,
             rgba=[0.35, 0.35, 0.4, 1],
         )
-    for prefix in robot_prefixes(task_cfg["num_agents"]):
+    prefixes = robot_prefixes(task_cfg["num_agents"])
+    for prefix in prefixes:
         spec.attach(lowlevel.robot_spec(), frame=world.add_frame(), prefix=prefix)
+    if not sim_cfg["robot_contacts"]:
+        exclude_teammates(spec, [b.name for b in lowlevel.robot_spec().bodies if b.name != "world"], prefixes)
     return spec
+
+
+def exclude_teammates(spec: mujoco.MjSpec, bodies: list[str], prefixes: list[str]) -> None:
+    """No contact between any body of one robot and any body of another (`sim.robot_contacts=false`): teammates
+    pass through each other, each still touching the floor, the object, the walls and itself."""
+    for i, first in enumerate(prefixes):
+        for second in prefixes[i + 1 :]:
+            for a in bodies:
+                for b in bodies:
+                    spec.add_exclude(bodyname1=first + a, bodyname2=second + b)
 
 
 def add_walls(world, half: float, height: float, thickness: float) -> None:
