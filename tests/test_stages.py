@@ -11,6 +11,7 @@ from omegaconf import OmegaConf, open_dict
 
 from mapush.config import compose_config
 from mapush.errors import BadInput
+from mapush.experiments import pipeline
 from mapush.experiments.archive import made_otherwise
 from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
 from mapush.experiments.stages import compose_stage, identity_of
@@ -218,6 +219,17 @@ def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(c
     # a changed budget is another high-level stage: the archived result does not stand for it
     longer = [*args, f"archive={archive}", "experiment.budgets.smoke.stages.high.env_steps=1600"]
     assert "1 jobs, 0 finished; 2 stages to run; 2 to train" in cli(*longer).stdout
+
+
+def test_a_job_refuses_code_older_than_the_package_files_and_trains_nothing(tmp_path, monkeypatch):
+    # as if every file of mapush had been saved after this process imported it (a sweep's worker, mid-edit)
+    monkeypatch.setattr(pipeline, "LOADED_AT", 0.0)
+    job = tmp_path / "job"
+    job.mkdir()
+    with pytest.raises(BadInput, match=r"mapush's code changed after this sweep started \(mapush/\S+\.py, .* more\); "
+                       r"valid: the same sweep command again"):  # fmt: skip
+        run_job(_job_cfg(tmp_path), job, 1)
+    assert not (tmp_path / "stages").exists() and not any(job.iterdir())
 
 
 def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp_path):

@@ -33,6 +33,10 @@ from mapush.lowlevel import BACKENDS
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import checkpoints, find_runs, is_complete
 
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
+LOADED_AT = time.time()
+"""When this process imported mapush: a sweep's workers keep the code they started with for every job they run,
+but read the config files anew for each job."""
 RESULT = "result.json"
 SUPERSEDED = "result.superseded.json"
 """Where a job's earlier result goes when the experiment changed under it (`result_changes`)."""
@@ -154,6 +158,19 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
     return planned
 
 
+def check_code_unchanged() -> None:
+    """Refuse a job when mapush's Python files changed after this process imported them (an editable install edited
+    while a sweep runs): its old code would read the new config files and name stages by neither version."""
+    changed = sorted(p for p in PACKAGE_DIR.rglob("*.py") if p.stat().st_mtime > LOADED_AT)
+    if changed:
+        names = ", ".join(str(p.relative_to(PACKAGE_DIR.parent)) for p in changed[:3])
+        more = f" and {len(changed) - 3} more" if len(changed) > 3 else ""
+        raise BadInput(
+            f"mapush's code changed after this sweep started ({names}{more}); valid: the same sweep command again, "
+            "which resumes with the new code"
+        )
+
+
 def iterations_for(stage_cfg: DictConfig | dict, env_steps: float) -> int:
     """PPO iterations that give at least `env_steps` 50 Hz control steps."""
     return max(1, math.ceil(float(env_steps) / env_steps_per_iteration(stage_cfg)))
@@ -161,6 +178,7 @@ def iterations_for(stage_cfg: DictConfig | dict, env_steps: float) -> int:
 
 def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     """Train, evaluate and record one job; returns the result (also written to `job_dir/result.json`)."""
+    check_code_unchanged()
     job_dir = Path(job_dir)
     done = job_dir / RESULT
     planned = planned_stages(cfg)
