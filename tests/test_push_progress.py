@@ -30,7 +30,8 @@ def test_a_push_that_drives_the_object_away_is_told_from_one_that_arrives():
     # behind and one ahead (x > 0, the subgoal's side)
     watch.capture(_env([[0.0, 0.0], [0.0, 0.0]], [[[-1.0, 0.5], [-1.0, -0.5]], [[-1.0, 0.0], [1.0, 0.0]]],
                        [False, False]), None, None, None, torch.tensor([False, False]))  # fmt: skip
-    # step 2: env 0 reaches the subgoal, pushed from behind, and ends; env 1's object went 1 m the wrong way, both robots now ahead
+    # step 2: env 0 reaches the subgoal, pushed from behind, and ends; env 1's object went 1 m the wrong way, both
+    # robots now ahead
     watch.capture(_env([[2.5, 0.0], [-1.0, 0.0]], [[[1.5, 0.5], [1.5, -0.5]], [[0.0, 0.0], [0.5, 1.0]]],
                        [True, False]), None, None, None, torch.tensor([True, False]))  # fmt: skip
     # step 3: env 0 has ended (a new episode would start; not counted); env 1 times out 2 m the wrong way
