@@ -67,6 +67,26 @@ def test_the_model_attaches_by_prefix_into_a_pushing_scene(cfg_for, agents):
             model.joint(f"{prefix}{name}")  # raises KeyError when missing
 
 
+@pytest.mark.parametrize("robot_contacts", [True, False])
+def test_go1s_that_overlap_touch_each_other_unless_robot_contacts_is_false(cfg_for, robot_contacts):
+    composed_cfg = cfg_for(f"sim.robot_contacts={str(robot_contacts).lower()}")
+    task = {**composed_cfg["task"], "num_agents": 2}
+    model = build_scene(composed_cfg["sim"], task, Go1Robot()).compile()
+    data = mujoco.MjData(model)
+    # 0.1 m apart, the bodies interpenetrate; 1 cm below standing height, the feet press into the floor
+    for prefix, y in zip(robot_prefixes(2), (0.0, 0.1), strict=True):
+        address = model.jnt_qposadr[model.joint(prefix + go1.ROOT_JOINT).id]
+        data.qpos[address : address + 3] = [-5.0, y, go1.standing_height() - 0.01]
+        data.qpos[address + 3 : address + 7] = [1.0, 0.0, 0.0, 0.0]
+        for name, angle in zip(go1.JOINT_NAMES, go1.default_joint_angles(), strict=True):
+            data.qpos[model.jnt_qposadr[model.joint(prefix + name).id]] = angle
+    mujoco.mj_forward(model, data)
+    owner = [model.body(model.geom_bodyid[g]).name.split("/")[0] for g in range(model.ngeom)]
+    pairs = {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}
+    assert (("robot0", "robot1") in pairs) is robot_contacts
+    assert {("robot0", "world"), ("robot1", "world")} <= pairs  # each still stands on the floor
+
+
 def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
     model = standalone_spec(**GAINS).compile()
     data = mujoco.MjData(model)
