@@ -56,13 +56,19 @@ def test_a_changed_reward_weight_tracker_value_or_budget_is_another_stage():
 
 
 def test_a_task_may_have_its_own_stage_budget():
-    # experiment/main.yaml: the T-block's high levels learn for 10M env-steps, every other task's for 5M; a high
-    # iteration is 128 envs x 32 decisions x 25 control steps = 102,400 env-steps
-    def high(task: str):
-        return planned_stages(compose_config(["experiment=main", "method=ours", f"task={task}"], config_name="sweep"))
+    # experiment/main.yaml gives every task's high levels 5M env-steps; a `by_task` entry gives the T-block's 10M.
+    # A high iteration is 128 envs x 32 decisions x 25 control steps = 102,400 env-steps.
+    def high(task: str, by_task: dict | None = None):
+        cfg = compose_config(["experiment=main", "method=ours", f"task={task}"], config_name="sweep")
+        if by_task is not None:
+            with open_dict(cfg):
+                cfg.experiment.budgets.quick.stages.high.by_task = by_task
+        return [s.env_steps for s in planned_stages(cfg)]
 
-    assert [s.env_steps for s in high("tblock")] == [12_000_000, 98 * 102_400]
-    assert [s.env_steps for s in high("cuboid")] == [12_000_000, 49 * 102_400]
+    assert high("tblock") == high("cuboid") == [12_000_000, 49 * 102_400]
+    longer = {"tblock": {"env_steps": 1.0e7}}
+    assert high("tblock", longer) == [12_000_000, 98 * 102_400]
+    assert high("cuboid", longer) == [12_000_000, 49 * 102_400]
     cfg = compose_config(["experiment=main", "method=ours", "task=tblock"], config_name="sweep")
     with open_dict(cfg):
         cfg.experiment.budgets.quick.stages.high.by_task = {"tblok": {"env_steps": 1.0e6}}
