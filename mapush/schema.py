@@ -115,11 +115,11 @@ def check_config(cfg: DictConfig | dict) -> None:
 
 def _check_value(key: str, value, kind: type, test: Callable, valid: str) -> None:
     if kind is bool:
-        if not isinstance(value, bool):
-            raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")
-        return
-    numeric = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
-    if not numeric or not math.isfinite(value) or not test(value):
+        typed = isinstance(value, bool)
+    else:
+        numeric = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
+        typed = numeric and math.isfinite(value)
+    if not typed or not test(value):
         raise BadInput(f"{key}={value!r} is not valid; valid: {valid}")
 
 

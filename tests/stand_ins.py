@@ -1,6 +1,6 @@
 """Stand-ins for tests: envs for the pure term functions (only the attributes a term reads, state fields under
-`env.state` as the real envs keep them: `PushState`, `LocomotionState`), and stage runs with hand-made iteration
-times for the cost and archive tests."""
+`env.state` as the real envs keep them: `PushState`, `LocomotionState`), stage runs with hand-made iteration
+times for the cost and archive tests, and which bodies touch in a MuJoCo state."""
 
 from __future__ import annotations
 
@@ -39,3 +39,10 @@ def stage_run(root: Path, name: str, threads: int, parts: list[dict[int, tuple[f
         writer.stop()
     (run / "policy.pt").write_bytes(b"")
     return run
+
+
+def touching_pairs(model, data) -> set[tuple[str, str]]:
+    """The pairs of bodies that touch in `data`, as MuJoCo's collision detection lists them (after `mj_forward`),
+    each body named by its robot prefix (`robot0`, ...) or its own name (`object`, `world`), sorted."""
+    owner = [model.body(model.geom_bodyid[g]).name.split("/")[0] for g in range(model.ngeom)]
+    return {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import torch
 from omegaconf import OmegaConf
+from stand_ins import touching_pairs
 
 from mapush.config import CONF_DIR
 from mapush.lowlevel import go1_constants as go1
@@ -81,8 +82,7 @@ def test_go1s_that_overlap_touch_each_other_unless_robot_contacts_is_false(cfg_f
         for name, angle in zip(go1.JOINT_NAMES, go1.default_joint_angles(), strict=True):
             data.qpos[model.jnt_qposadr[model.joint(prefix + name).id]] = angle
     mujoco.mj_forward(model, data)
-    owner = [model.body(model.geom_bodyid[g]).name.split("/")[0] for g in range(model.ngeom)]
-    pairs = {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}
+    pairs = touching_pairs(model, data)
     assert (("robot0", "robot1") in pairs) is robot_contacts
     assert {("robot0", "world"), ("robot1", "world")} <= pairs  # each still stands on the floor
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
+from stand_ins import touching_pairs
 
 from mapush.config import group_options
 from mapush.lowlevel.tracker import Tracker
@@ -84,17 +85,16 @@ def test_object_rests_on_the_floor(cfg_for):
     assert model.body("object").pos[2] == pytest.approx(0.25)
 
 
-def touching_pairs(cfg: dict, robot_xy: list[tuple[float, float]]) -> set[tuple[str, str]]:
-    """Which bodies touch, as MuJoCo's collision detection lists them, with the robots at `robot_xy` (the tracker's
-    x and y slides) and the object where the task starts it."""
+def touching_with_robots_at(cfg: dict, robot_xy: list[tuple[float, float]]) -> set[tuple[str, str]]:
+    """Which bodies touch with the robots at `robot_xy` (the tracker's x and y slides) and the object where the task
+    starts it."""
     model = compile_scene(cfg)
     data = mujoco.MjData(model)
     for i, (x, y) in enumerate(robot_xy):
         data.qpos[model.jnt_qposadr[model.joint(f"robot{i}/x").id]] = x
         data.qpos[model.jnt_qposadr[model.joint(f"robot{i}/y").id]] = y
     mujoco.mj_forward(model, data)
-    owner = [model.body(model.geom_bodyid[g]).name.split("/")[0] for g in range(model.ngeom)]
-    return {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}
+    return touching_pairs(model, data)
 
 
 @pytest.mark.parametrize("robot_contacts", [True, False])
@@ -104,6 +104,6 @@ def test_sim_robot_contacts_false_lets_teammates_pass_through_each_other_only(cf
     sx, sy = cfg["task"]["object"]["start_xy"]
     half = cfg["task"]["object"]["parts"][0]["size"][0] / 2
     # robots 0 and 1 overlap far from the object; robot 2 stands half inside the object's -x face
-    pairs = touching_pairs(cfg, [(sx - 5.0, sy), (sx - 5.1, sy), (sx - half, sy)])
+    pairs = touching_with_robots_at(cfg, [(sx - 5.0, sy), (sx - 5.1, sy), (sx - half, sy)])
     assert (("robot0", "robot1") in pairs) is robot_contacts
     assert ("object", "robot2") in pairs

@@ -51,11 +51,6 @@ class PushWatch:
         self.ended |= done
 
 
-def watch_pushes(cfg: dict, checkpoint: Path, episodes: int) -> tuple[dict, PushWatch]:
-    watch = PushWatch()
-    return run_episodes(cfg, checkpoint, episodes, 0, recorders=(watch,)), watch
-
-
 def report(label: str, out: dict, watch: PushWatch) -> None:
     success = watch.succeeded
     print(f"{label}: S.R. {out['success_rate']:.2f}")
@@ -75,12 +70,11 @@ def main() -> None:
     parser.add_argument("--compare", nargs="*", default=[], help="overrides to evaluate with besides as trained")
     args = parser.parse_args()
     checkpoint = checkpoints(args.run)[-1]
-    for overrides in ([], args.compare):
-        if overrides is args.compare and not overrides:
-            continue
+    for overrides in [[], args.compare] if args.compare else [[]]:
         cfg = to_plain(apply_overrides(load_run_config(args.run), ["sim.nthread=1", *overrides]))
         cfg["log"]["eval_episodes"] = 0
-        out, watch = watch_pushes(cfg, checkpoint, args.episodes)
+        watch = PushWatch()
+        out = run_episodes(cfg, checkpoint, args.episodes, 0, recorders=(watch,))
         report(" ".join(overrides) or "as trained", out, watch)
 
 

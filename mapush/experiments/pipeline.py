@@ -31,9 +31,8 @@ from mapush.experiments import stages
 from mapush.experiments.stages import STAGE_REF
 from mapush.lowlevel import BACKENDS
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
-from mapush.rundir import checkpoints, find_runs, is_complete
+from mapush.rundir import PACKAGE, checkpoints, find_runs, is_complete
 
-PACKAGE_DIR = Path(__file__).resolve().parents[1]
 LOADED_AT = time.time()
 """When this process imported mapush: a sweep's workers keep the code they started with for every job they run,
 but read the config files anew for each job."""
@@ -161,9 +160,9 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
 def check_code_unchanged() -> None:
     """Refuse a job when mapush's Python files changed after this process imported them (an editable install edited
     while a sweep runs): its old code would read the new config files and name stages by neither version."""
-    changed = sorted(p for p in PACKAGE_DIR.rglob("*.py") if p.stat().st_mtime > LOADED_AT)
+    changed = sorted(p for p in PACKAGE.rglob("*.py") if p.stat().st_mtime > LOADED_AT)
     if changed:
-        names = ", ".join(str(p.relative_to(PACKAGE_DIR.parent)) for p in changed[:3])
+        names = ", ".join(str(p.relative_to(PACKAGE.parent)) for p in changed[:3])
         more = f" and {len(changed) - 3} more" if len(changed) > 3 else ""
         raise BadInput(
             f"mapush's code changed after this sweep started ({names}{more}); valid: the same sweep command again, "

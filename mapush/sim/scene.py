@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import mujoco
 
 from mapush.planning.geometry import PARKED
@@ -82,11 +84,10 @@ def build_scene(
 def exclude_teammates(spec: mujoco.MjSpec, bodies: list[str], prefixes: list[str]) -> None:
     """No contact between any body of one robot and any body of another (`sim.robot_contacts=false`): teammates
     pass through each other, each still touching the floor, the object, the walls and itself."""
-    for i, first in enumerate(prefixes):
-        for second in prefixes[i + 1 :]:
-            for a in bodies:
-                for b in bodies:
-                    spec.add_exclude(bodyname1=first + a, bodyname2=second + b)
+    for (first, second), (a, b) in itertools.product(
+        itertools.combinations(prefixes, 2), itertools.product(bodies, repeat=2)
+    ):
+        spec.add_exclude(bodyname1=first + a, bodyname2=second + b)
 
 
 def add_walls(world, half: float, height: float, thickness: float) -> None:
