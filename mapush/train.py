@@ -31,11 +31,15 @@ def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     return run_dir
 
 
-def resume(run_dir: Path, iterations: int | None) -> Path:
-    """Continue a cut run from its latest checkpoint up to its configured (or the given) iteration count."""
+def resume(run_dir: Path, iterations: int | None, nthread: int | None = None) -> Path:
+    """Continue a cut run from its latest checkpoint up to its configured (or the given) iteration count, with
+    `nthread` MuJoCo threads if given (a run cut on a machine of other cores; threads are not what it learns, and
+    `Perf/threads` records each iteration's), else with those of its config."""
     cfg = load_run_config(run_dir)
     if iterations is not None:
         cfg.train.iterations = iterations
+    if nthread is not None:
+        cfg.sim.nthread = nthread
     check_config(cfg)
     found = checkpoints(run_dir)
     if not found:

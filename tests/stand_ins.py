@@ -24,13 +24,17 @@ def stand_in_env(**attrs) -> SimpleNamespace:
     return SimpleNamespace(state=SimpleNamespace(**state), **attrs)
 
 
-def stage_run(root: Path, name: str, threads: int, parts: list[dict[int, tuple[float, float]]]) -> Path:
-    """A run dir with one metrics file per part: {iteration: (collection s, learning s)}."""
+def stage_run(
+    root: Path, name: str, threads: int, parts: list[dict[int, tuple[float, float]]], recorded: list[int] | None = None
+) -> Path:
+    """A run dir with one metrics file per part: {iteration: (collection s, learning s)}; `recorded`: the threads
+    each part's iterations record (`Perf/threads`; 0, as files written before that record, or None: none)."""
     run = root / name
     run.mkdir(parents=True)
     OmegaConf.save(compose_config([f"sim.nthread={threads}"]), run / "config.yaml")
-    for part in parts:
-        writer = McapLogWriter(str(run), progress=False)  # a second writer opens metrics.1.mcap, as a resume does
+    for part, part_threads in zip(parts, recorded or [0] * len(parts), strict=True):
+        # a second writer opens metrics.1.mcap, as a resume does
+        writer = McapLogWriter(str(run), progress=False, threads=part_threads)
         for it, (collection, learning) in part.items():
             writer.add_scalar("Perf/collection_time", collection, it)
             writer.add_scalar("Perf/learning_time", learning, it)

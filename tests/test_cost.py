@@ -40,6 +40,15 @@ def test_an_iteration_that_stood_still_counts_as_a_median_one(tmp_path):
     assert stage_core_seconds(stage_run(tmp_path, "slow", 2, [times])) == pytest.approx(2 * (29 * 3.0 + 50.0))
 
 
+def test_a_run_resumed_with_other_threads_counts_each_iteration_at_its_own(tmp_path):
+    # cut after iterations 0 and 1 on 2 threads, before runs recorded their threads (the config says 2); resumed
+    # with 1 thread, which repeats iteration 1: 3 s x 2 threads, then 2 x 3 s x 1 thread
+    parts = [{0: (1.0, 2.0), 1: (1.0, 2.0)}, {1: (1.0, 2.0), 2: (1.0, 2.0)}]
+    assert stage_core_seconds(stage_run(tmp_path, "moved", 2, parts, recorded=[0, 1])) == pytest.approx(12.0)
+    # without the record every iteration counts at the config's threads
+    assert stage_core_seconds(stage_run(tmp_path, "unrecorded", 2, parts)) == pytest.approx(18.0)
+
+
 def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
     cost = measured_cost(two_jobs, cores=2)
     # training: a 1800 + 3600 s x 1 thread = 1.5 core-h; b 3600 s x 2 threads = 2 core-h

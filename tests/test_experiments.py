@@ -9,9 +9,12 @@ import shutil
 from pathlib import Path
 
 import pytest
+from omegaconf import OmegaConf
 
 from mapush.config import group_options
 from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
+from mapush.logging.mcap_files import training_scalars
+from mapush.logging.metrics import THREADS_TAG
 from mapush.report import tables
 from mapush.rundir import find_runs
 
@@ -97,6 +100,11 @@ def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
     stage_dir = mid_run.parents[2]  # the stage's store dir: <stages>/<identity>/mid/<task>/<run>
     for name in (RESULT, "mid_run/model_2.pt", "mid_run/policy.pt"):
         (jobs[cut] / name if name == RESULT else mid_run / name.split("/")[1]).unlink()
+    # as if cut on a machine of 3 cores: the resumed iterations run with this job's threads, and record them
+    config = OmegaConf.load(mid_run / "config.yaml")
+    job_threads = config.sim.nthread
+    config.sim.nthread = 3
+    OmegaConf.save(config, mid_run / "config.yaml")
     proc = _sweep(cli, tmp_path, "experiment=ocb_ablation", three)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (jobs[finished] / RESULT).read_text() == kept  # not run again
@@ -104,6 +112,7 @@ def test_a_rerun_skips_finished_jobs_and_resumes_a_cut_stage(cli, tmp_path):
     assert find_runs(stage_dir) == [mid_run]
     assert json.loads((jobs[cut] / RESULT).read_text())["stages"]["mid"] == str(mid_run)
     assert "Learning iteration 2/3" in (mid_run / "train.log").read_text()
+    assert training_scalars(mid_run, prefix="Perf/")[THREADS_TAG][2] == job_threads != 3
 
 
 @pytest.mark.slow

@@ -208,7 +208,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         overrides = [_resolve_stage_refs(o, runs) for o in stage.overrides] + [f"sim.nthread={threads}"]
         directory = stages.stage_dir(Path(cfg.sweep_root), stage.identity)
         with stages.held(directory):
-            runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval)
+            runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval, threads)
     evaluated = runs[evaluated_stage(cfg)]
     started = time.perf_counter()  # the evaluations and the learning curve: the job's cost beside its stages'
     evals = {}
@@ -356,16 +356,18 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
     return {**OmegaConf.to_container(curve), "rule": rule, "points": points}
 
 
-def train_stage(stage_dir: Path, overrides: list[str], iterations: int, save_interval: int) -> Path:
-    """The finished run of one stage in its store dir: reused, resumed from its last checkpoint, or trained from
-    scratch for `iterations`."""
+def train_stage(
+    stage_dir: Path, overrides: list[str], iterations: int, save_interval: int, threads: int | None = None
+) -> Path:
+    """The finished run of one stage in its store dir: reused, resumed from its last checkpoint (with the job's
+    `threads`, not those of the process it was cut in), or trained from scratch for `iterations`."""
     for run_dir in find_runs(stage_dir):
         if (run_dir / POLICY_FILE).is_file():
             return run_dir
         if is_complete(run_dir):
             return training.export_finished(run_dir)
         if checkpoints(run_dir):
-            return training.resume(run_dir, None)
+            return training.resume(run_dir, None, threads)
         shutil.rmtree(run_dir)  # cut before its first checkpoint: nothing to keep
     cfg = compose_config(overrides)
     budget = {

@@ -8,7 +8,7 @@ Each scalar tag becomes the topic `/metrics/<tag>` with JSON messages {"iteratio
   (the last 500 episodes), `Train/mean_episode_length` (steps), `Train/mean_reward`;
 - `Loss/<name>` (rsl-rl's PPO losses), `Loss/learning_rate`, `Policy/mean_std` (action std);
 - `Perf/env_steps_per_s` (env-steps, all robots of an env together), `Perf/total_fps` (rsl-rl's agent rows/s),
-  `Perf/collection_time`, `Perf/learning_time`.
+  `Perf/collection_time`, `Perf/learning_time`, `Perf/threads` (the iteration's MuJoCo threads).
 
 The run's `config.yaml` and `meta.json` (git commit, command) are attached, and `meta.json`'s fields stored as the
 metadata record `run`, as soon as the file opens; the rsl-rl config dicts follow. The file is flushed at the end
@@ -26,6 +26,8 @@ from mcap.writer import CompressionType, Writer
 from rsl_rl.utils import LogWriter
 from rsl_rl.utils.logger import Logger
 
+THREADS_TAG = "Perf/threads"
+"""Each iteration's MuJoCo threads, beside its times: what its wall time is multiplied by to count core-seconds."""
 SCALAR_SCHEMA = {
     "type": "object",
     "title": "mapush.Scalar",
@@ -61,6 +63,7 @@ class McapLogWriter(LogWriter):
         total_iterations: int = 0,
         rows_per_env: int = 1,
         progress: bool = True,
+        threads: int = 0,
     ):
         self.path = next_free_path(os.path.join(log_dir, filename))
         self._file = open(self.path, "wb")
@@ -70,6 +73,7 @@ class McapLogWriter(LogWriter):
         self._channels: dict[str, int] = {}
         self._latest: dict[str, float] = {}
         self.total_iterations, self.rows_per_env, self.progress = total_iterations, rows_per_env, progress
+        self.threads = threads  # MuJoCo threads of this process's iterations (a resumed run may differ)
         self._started = time.time()
         self._first_iteration: int | None = None
         self._attach_run_files(log_dir)
@@ -106,6 +110,8 @@ class McapLogWriter(LogWriter):
         self._latest[tag] = value
         if tag == "Perf/total_fps":
             self.add_scalar("Perf/env_steps_per_s", value / self.rows_per_env, global_step)
+        if tag == "Perf/collection_time" and self.threads:
+            self.add_scalar(THREADS_TAG, self.threads, global_step)
 
     def latest(self, tag: str) -> float | None:
         """The last value recorded for `tag` (this iteration's, if it was logged), or None."""

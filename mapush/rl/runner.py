@@ -77,6 +77,7 @@ def train_cfg_for(cfg: dict, rows_per_env: int, total_iterations: int) -> dict:
         "total_iterations": total_iterations,
         "rows_per_env": rows_per_env,
         "progress": bool(cfg["train"]["progress"]),
+        "threads": int(cfg["sim"]["nthread"]) or os.cpu_count() or 1,
     }
     return train_cfg
 
