@@ -115,6 +115,7 @@ def test_metrics_of_a_real_run_hold_every_required_series(smoke_run):
         "/metrics/Loss/learning_rate",
         "/metrics/Policy/mean_std",
         "/metrics/Perf/env_steps_per_s",
+        "/metrics/Perf/threads",
     ]
     missing = [t for t in required if t not in topics]
     assert not missing
