@@ -91,6 +91,11 @@ def _run_dir_override(override: str) -> str:
     return f"train.run_dir={value}" if sep and key.lstrip("+") == "hydra.run.dir" else override
 
 
+def sim_threads(cfg: DictConfig | dict) -> int:
+    """The MuJoCo threads a config steps its batch with: `sim.nthread`, where 0 means every core of this machine."""
+    return int(cfg["sim"]["nthread"]) or os.cpu_count() or 1
+
+
 def to_plain(cfg: DictConfig) -> dict:
     """The config as plain, resolved Python containers (what rsl-rl and the env receive)."""
     return OmegaConf.to_container(cfg, resolve=True)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
-from mapush.config import to_plain
+from mapush.config import sim_threads, to_plain
 from mapush.envs.high import HighPushEnv
 from mapush.envs.low import LocomotionEnv, locomotion_model
 from mapush.envs.mid import MidPushEnv
@@ -119,8 +119,7 @@ def make_env(cfg: dict, evaluation: bool = False):
 def torch_threads(cfg: dict) -> tuple[int, int]:
     """Torch threads of the rollout and of the PPO update (`train.rollout_threads`, `train.update_threads`);
     0 means as many as MuJoCo steps the batch with (`sim.nthread`, itself 0 for every core)."""
-    sim_threads = int(cfg["sim"]["nthread"]) or os.cpu_count() or 1
-    return tuple(int(cfg["train"][key]) or sim_threads for key in ("rollout_threads", "update_threads"))
+    return tuple(int(cfg["train"][key]) or sim_threads(cfg) for key in ("rollout_threads", "update_threads"))
 
 
 def build(cfg: dict, run_dir: Path | None, total_iterations: int, evaluation: bool = False):

@@ -16,13 +16,12 @@ import contextlib
 import fcntl
 import hashlib
 import json
-import os
 import statistics
 from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from mapush.config import compose_config, load_run_config, to_plain
+from mapush.config import compose_config, load_run_config, sim_threads, to_plain
 from mapush.logging.mcap_files import training_scalars
 from mapush.logging.metrics import THREADS_TAG
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
@@ -215,7 +214,7 @@ def stage_core_seconds(run_dir: Path) -> float:
 
 def run_threads(run_dir: Path) -> int:
     """The cores a run's physics used: `sim.nthread`, where 0 means every core of this machine."""
-    return int(load_run_config(run_dir).sim.nthread) or os.cpu_count() or 1
+    return sim_threads(load_run_config(run_dir))
 
 
 def stage_paths(result: dict) -> list[Path]:

@@ -5,13 +5,14 @@ Each table counts a stage once, however many of its jobs use it; tables that sha
 scalability study) each count them, so their costs do not add up. What a table adds after the others, its shared
 stages already trained, is given beside (`cost_after`). Training time is the PPO iterations' time as
 rsl-rl measures it (`Perf/collection_time` + `Perf/learning_time` in `metrics.mcap`), each iteration once: what an
-uninterrupted run costs, without the iterations a cut run repeats after resuming. It is multiplied by the stage's
-MuJoCo threads. Evaluation time is what a job spent after training (its evaluations and learning curve,
-`eval_wall_s` in `result.json`) times the job's threads. Jobs that finished before the pipeline recorded it get it
-from file times (the evaluated stage's exported policy to the job's `finished`), but only the first job to
-evaluate a stage: a later one that reused it left no trace of its own time. A job that ran again after its
-experiment changed (`rerun_changed`) counts its earlier result too when only its evaluations changed; an earlier
-result of other stages (another recipe) is reported apart: a table's cost is what its results cost.
+uninterrupted run costs, without the iterations a cut run repeats after resuming. It is multiplied by the MuJoCo
+threads each iteration recorded (else the stage's). Evaluation time is what a job spent after training (its
+evaluations and learning curve, `eval_wall_s` in `result.json`) times the job's threads. Jobs that finished
+before the pipeline recorded it get it from file times (the evaluated stage's exported policy to the job's
+`finished`), but only the first job to evaluate a stage: a later one that reused it left no trace of its own time.
+A job that ran again after its experiment changed (`rerun_changed`) counts its earlier result too when only its
+evaluations changed; an earlier result of other stages (another recipe) is reported apart: a table's cost is what
+its results cost.
 """
 
 from __future__ import annotations

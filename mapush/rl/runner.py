@@ -11,6 +11,7 @@ import numpy as np
 import torch
 from rsl_rl.runners import OnPolicyRunner
 
+from mapush.config import sim_threads
 from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
 from mapush.logging.metrics import IterationLogger, McapLogWriter
@@ -77,7 +78,7 @@ def train_cfg_for(cfg: dict, rows_per_env: int, total_iterations: int) -> dict:
         "total_iterations": total_iterations,
         "rows_per_env": rows_per_env,
         "progress": bool(cfg["train"]["progress"]),
-        "threads": int(cfg["sim"]["nthread"]) or os.cpu_count() or 1,
+        "threads": sim_threads(cfg),
     }
     return train_cfg
 
