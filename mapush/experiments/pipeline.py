@@ -356,9 +356,7 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
     return {**OmegaConf.to_container(curve), "rule": rule, "points": points}
 
 
-def train_stage(
-    stage_dir: Path, overrides: list[str], iterations: int, save_interval: int, threads: int | None = None
-) -> Path:
+def train_stage(stage_dir: Path, overrides: list[str], iterations: int, save_interval: int, threads: int) -> Path:
     """The finished run of one stage in its store dir: reused, resumed from its last checkpoint (with the job's
     `threads`, not those of the process it was cut in), or trained from scratch for `iterations`."""
     for run_dir in find_runs(stage_dir):
