@@ -338,11 +338,60 @@ def test_a_turn_fraction_of_the_commands_turns_on_the_spot(cfg_for):
     assert commands[on_the_spot, 2].abs().mean() > 0.4  # they still turn, drawn from [-1, 1] rad/s
 
 
-def test_without_a_load_fraction_the_scene_holds_the_go1_alone(cfg_for):
+def test_without_a_load_or_teammate_fraction_the_scene_holds_the_go1_alone(cfg_for):
     from mapush.envs.low import LocomotionEnv
 
     env = LocomotionEnv(cfg_for("level=low"), num_envs=2)
-    assert env.model.nq == 7 + 12 and env.loads == []  # runs trained before loads simulate what they trained on
+    # runs trained before loads and teammates simulate what they trained on
+    assert env.model.nq == 7 + 12 and env.model.nu == 12 and env.loads == [] and env.mates is None
+
+
+def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg_for):
+    """Two teammate Go1s start left and right of the robot, `gap_m` from its side (measured in its frame with
+    MuJoCo's rotation, the oracle), then, the robot told to stand, walk into it and touch it (MuJoCo's contact list);
+    in episodes without them they stand parked, far away."""
+    from mapush.envs.low import MATE_PARKED_XY, LocomotionEnv
+
+    cfg = cfg_for(
+        "level=low",
+        "level.randomize.teammates.fraction=1.0",
+        "level.randomize.teammates.lean_mps=[0.3,0.3]",
+        "level.commands.zero_fraction=1.0",
+        "level.randomize.push_velocity=0.0",
+    )
+    env = LocomotionEnv(cfg, num_envs=8)
+    mates, width = cfg["level"]["randomize"]["teammates"], cfg["lowlevel"]["size"][1]
+    assert env.model.nu == 12 * 3 and env.mate_used.all()
+    qpos = env.sim.qpos
+    for e in range(8):
+        for k, side in enumerate((1.0, -1.0)):
+            world = np.array([*(env.mates.read(qpos, env.sim.qvel)["xy"][e, k] - qpos[e, :2]), 0.0])
+            local = np.zeros(3)
+            inverse = np.zeros(4)
+            mujoco.mju_negQuat(inverse, qpos[e, 3:7])
+            mujoco.mju_rotVecQuat(local, world, inverse)
+            assert abs(local[0]) <= 0.3 + 1e-6  # beside it, not ahead or behind
+            gap = side * local[1] - width  # its centre beyond a Go1's width: the gap between their sides
+            assert mates["gap_m"][0] - 1e-6 <= gap <= mates["gap_m"][1] + 1e-6
+    start = np.linalg.norm(env.mates.read(qpos, env.sim.qvel)["xy"] - qpos[:, None, :2], axis=-1)
+    standing = torch.zeros(8, 1, 12)  # the default pose: the robot stands still
+    for _ in range(75):  # 1.5 s
+        env.step(standing)
+    now = np.linalg.norm(env.mates.read(qpos, env.sim.qvel)["xy"] - qpos[:, None, :2], axis=-1)
+    assert (now < start).mean() > 0.9
+    data = mujoco.MjData(env.model)
+    touched = 0
+    for e in range(8):
+        data.qpos[:], data.qvel[:] = qpos[e], env.sim.qvel[e]
+        mujoco.mj_forward(env.model, data)
+        pairs = touching_pairs(env.model, data)
+        touched += any(("mate" in a) != ("mate" in b) and "world" not in (a, b) for a, b in pairs)
+    assert touched >= 4
+
+    unused = cfg_for("level=low", "level.randomize.teammates.fraction=0.5")  # evaluation: none beside it
+    parked = LocomotionEnv(unused, num_envs=64, evaluation=True)
+    xy = parked.mates.read(parked.sim.qpos, parked.sim.qvel)["xy"]
+    assert not parked.mate_used.any() and (np.linalg.norm(xy - np.array(MATE_PARKED_XY), axis=-1) < 2.0).all()
 
 
 def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(cfg_for):

@@ -17,7 +17,10 @@ Domain randomization: ground and foot friction and an added trunk mass, drawn on
 change of the trunk's horizontal velocity) every `push_interval_s`, and optionally a held horizontal force on the
 trunk (`force_n`: the load of pushing an object or being leaned on). Optionally (`randomize.load`) a free box or
 cylinder of the pushing tasks' size stands ahead of the robot, along its first command, for it to walk into and
-shove unseen, as it must under the pushing levels (`eval_load_fraction` measures a policy doing so). A fall
+shove unseen, as it must under the pushing levels (`eval_load_fraction` measures a policy doing so). Optionally
+(`randomize.teammates`) teammates stand beside it, shoulder to shoulder as a pushing team's robots do: Go1s walked
+by the frozen locomotion policy (`lowlevel.policy`), which walk along at the robot's commanded velocity and lean
+into it (`eval_teammate_fraction` measures a policy among them). A fall
 (trunk too low, tilted too far, or touching the ground) ends the episode as an exception; reaching the timeout is a
 success.
 """
@@ -34,8 +37,8 @@ import torch
 from mapush.envs.core import EnvCore
 from mapush.errors import BadInput
 from mapush.lowlevel import go1_constants as go1
-from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
-from mapush.lowlevel.go1_model import standalone_spec
+from mapush.lowlevel.go1 import Go1, proprioception, rotate_into_body, rotate_into_world
+from mapush.lowlevel.go1_model import go1_spec, standalone_spec
 from mapush.sim.core import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
@@ -50,14 +53,19 @@ ROBOT_NQ, ROBOT_NV = 7 + len(go1.JOINT_NAMES), 6 + len(go1.JOINT_NAMES)
 """The Go1's columns of qpos and qvel (its free joint, then its joints), which come first: any load follows."""
 PARKED_XY = {"box": (100.0, 100.0), "cylinder": (100.0, -100.0)}
 """m; where each load waits when not in use, beyond any robot's reach in an episode and apart from the other."""
+MATE_PREFIX = "mate{}/"
+"""The name prefix of teammate k, a Go1 attached to the scene after the robot and any loads."""
+MATE_PARKED_XY = (-100.0, 100.0)
+"""m; where teammate k stands when not in use (k m further along x), beyond reach and apart from the loads."""
 LOAD_GEOM_FRICTION = 0.1
 """A load's own sliding friction, below the floor's and the Go1's: MuJoCo takes the larger of a contact's two, so
 the floor sets the load's drag (`resistance_n` picks its mass) and the robot's 1.0 its grip, as in a pushing scene."""
 
 
 def locomotion_model(cfg: dict) -> mujoco.MjModel:
-    """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep, and the loads where a run
-    asks for them (`load_fractions`)."""
+    """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep, and the loads and the
+    teammates where a run asks for them (`load_fractions`, `teammate_fractions`). The Go1's 12 actuators come
+    first."""
     spec = standalone_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], cfg["sim"]["timestep"])
     load = cfg["level"]["randomize"].get("load")  # runs made before the key have none
     if any(load_fractions(cfg)):
@@ -70,6 +78,9 @@ def locomotion_model(cfg: dict) -> mujoco.MjModel:
             body = spec.worldbody.add_body(name=LOAD_BODIES[shape], pos=[*PARKED_XY[shape], half_height])
             body.add_freejoint()
             body.add_geom(type=kind, size=size, mass=1.0, friction=[LOAD_GEOM_FRICTION, 0.005, 0.0001])
+    for k in range(teammate_count(cfg)):
+        mate = go1_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], foot_friction=cfg["lowlevel"]["foot_friction"])
+        spec.attach(mate, frame=spec.worldbody.add_frame(), prefix=MATE_PREFIX.format(k))
     return spec.compile()
 
 
@@ -77,6 +88,17 @@ def load_fractions(cfg: dict) -> tuple[float, float]:
     """The share of training and of evaluation episodes that start with a load ahead (0, 0 without the key)."""
     load = cfg["level"]["randomize"].get("load") or {}
     return float(load.get("fraction", 0.0)), float(cfg["level"].get("eval_load_fraction", 0.0))
+
+
+def teammate_fractions(cfg: dict) -> tuple[float, float]:
+    """The share of training and of evaluation episodes with teammates beside the robot (0, 0 without the key)."""
+    mates = cfg["level"]["randomize"].get("teammates") or {}
+    return float(mates.get("fraction", 0.0)), float(cfg["level"].get("eval_teammate_fraction", 0.0))
+
+
+def teammate_count(cfg: dict) -> int:
+    """How many teammate Go1s the scene holds: `randomize.teammates.count` where any episode uses them, else 0."""
+    return int(cfg["level"]["randomize"]["teammates"]["count"]) if any(teammate_fractions(cfg)) else 0
 
 
 @dataclass
@@ -114,7 +136,8 @@ class LocomotionEnv(EnvCore):
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
         self.action_limit = float(self.robot["action_clip"])
         b = sim.batch
-        self.geom_xpos, self.actuator_force = b.bind("geom_xpos"), b.bind("actuator_force")
+        self.geom_xpos = b.bind("geom_xpos")
+        self.actuator_force = b.bind("actuator_force")[:, :12]  # the Go1's; any teammates' follow
         self.body_xquat = b.bind("xquat")
         self.applied = b.bind("xfrc_applied")  # (E, nbody, 6) force and torque on each body, world frame
         self.trunk = self.model.body(go1.ROOT_BODY).id
@@ -124,7 +147,9 @@ class LocomotionEnv(EnvCore):
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
         self.robot_qpos, self.robot_qvel = sim.qpos[:, :ROBOT_NQ], sim.qvel[:, :ROBOT_NV]  # views
-        self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if self.model.nq > ROBOT_NQ else []
+        self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if any(load_fractions(cfg)) else []
+        self.teammate_fraction = teammate_fractions(cfg)[1 if evaluation else 0]
+        self._bind_teammates()
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
         self.commands = torch.zeros(E, 3)
@@ -136,6 +161,18 @@ class LocomotionEnv(EnvCore):
         self.state = None  # read at the first reset; the foot speeds need the previous foot positions
         self.drawn_geoms = np.array(drawn_geom_ids(self.model))
         self.reset(np.arange(E))
+
+    def _bind_teammates(self) -> None:
+        """The teammates' backend `mates` (a go1 backend walking them with the frozen locomotion policy; None
+        without teammates) and their parked places (k, 2). `mate_used` (E,) says which envs' episodes have them,
+        `lean` (E,) each env's lean toward the robot, m/s."""
+        k = teammate_count(self.cfg)
+        self.mates = Go1(self.cfg["lowlevel"]) if k else None
+        if self.mates:
+            self.mates.bind(self.model, [MATE_PREFIX.format(i) for i in range(k)])
+        self.mate_parked = np.array([[MATE_PARKED_XY[0] + i, MATE_PARKED_XY[1]] for i in range(k)])
+        self.mate_used = np.zeros(self.num_envs, dtype=bool)
+        self.lean = np.zeros(self.num_envs)
 
     def seed(self, seed: int) -> None:
         """Reseed the start draws: commands (torch) and poses, headings and pushes (numpy)."""
@@ -173,12 +210,15 @@ class LocomotionEnv(EnvCore):
         qpos[:, 7:] = self.default_pose * self.rng.uniform(*self.cfg["level"]["randomize"]["joint_scale"], size=(n, 12))
         sim.qpos[ids, :ROBOT_NQ] = qpos
         sim.qvel[ids] = 0.0
-        sim.ctrl[ids] = self.default_pose
+        sim.ctrl[ids] = 0.0
+        sim.ctrl[ids, :12] = self.default_pose
         self.applied[ids, self.trunk] = 0.0
         self.force_steps_left[ids] = 0
         self.commands[t] = self._sample_commands(n)
         if self.loads:
             self._place_loads(ids, yaw, self.commands[t].numpy())
+        if self.mates:
+            self._place_teammates(ids, qpos[:, :2], yaw)
         sim.forward(ids)
         self.actions[t] = 0.0
         self.last_actions[t] = 0.0
@@ -208,6 +248,40 @@ class LocomotionEnv(EnvCore):
             pose[:, :2], pose[:, 2] = xy, self.model.body_pos[body.id][2]
             pose[:, 3], pose[:, 6] = np.cos(spin / 2), np.sin(spin / 2)
             self.sim.qpos[ids, address : address + 7] = pose
+
+    def _place_teammates(self, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
+        """A `teammate_fraction` of the episodes start with every teammate standing beside the robot, alternately
+        on its left and right (the third and fourth one robot-length further back), `gap_m` from its side, headed
+        as it within 0.2 rad, each env with its own lean (`lean_mps`); in the others they stand parked."""
+        mates, n, k = self.cfg["level"]["randomize"]["teammates"], len(ids), len(self.mate_parked)
+        used = self.rng.random(n) < self.teammate_fraction
+        self.mate_used[ids] = used
+        self.lean[ids] = np.where(used, self.rng.uniform(*mates["lean_mps"], size=n), 0.0)
+        length, width = self.robot["size"][:2]
+        side = np.where(np.arange(k) % 2 == 0, 1.0, -1.0)  # (k,) left, right, ...
+        lateral = side * (width + self.rng.uniform(*mates["gap_m"], size=(n, k)))
+        along = -(length + 0.1) * (np.arange(k) // 2) + self.rng.uniform(-0.3, 0.3, size=(n, k))
+        cos, sin = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        offset = np.stack([cos * along - sin * lateral, sin * along + cos * lateral], -1)  # (n, k, 2)
+        placed = np.where(used[:, None, None], xy[:, None, :] + offset, self.mate_parked[None])
+        heading = np.where(used[:, None], yaw[:, None] + self.rng.uniform(-0.2, 0.2, size=(n, k)), 0.0)
+        self.mates.place(self.sim.qpos, self.sim.qvel, ids, placed, heading)
+
+    def _drive_teammates(self) -> None:
+        """Every teammate in use walks at the robot's commanded velocity (world frame, from the robot's heading now)
+        plus its env's lean toward the robot; parked ones stand. Their policy writes their joint targets."""
+        qpos, qvel = self.sim.qpos, self.sim.qvel
+        command = np.concatenate([self.commands[:, :2].numpy(), np.zeros((self.num_envs, 1))], -1)
+        walk = rotate_into_world(self.robot_qpos[:, 3:7], command)[:, None, :2]  # (E, 1, 2)
+        mates = self.mates.read(qpos, qvel)
+        toward = self.robot_qpos[:, None, :2] - mates["xy"]
+        toward /= np.maximum(np.linalg.norm(toward, axis=-1, keepdims=True), 1e-6)
+        velocity = (walk + self.lean[:, None, None] * toward) * self.mate_used[:, None, None]  # (E, k, 2) world
+        cos, sin = np.cos(mates["yaw"]), np.sin(mates["yaw"])
+        body = np.stack(
+            [cos * velocity[..., 0] + sin * velocity[..., 1], -sin * velocity[..., 0] + cos * velocity[..., 1]], -1
+        )
+        self.mates.command(self.sim.ctrl, qpos, qvel, np.concatenate([body, np.zeros_like(body[..., :1])], -1))
 
     def _sample_commands(self, n: int) -> torch.Tensor:
         spec = self.command_ranges
@@ -249,7 +323,9 @@ class LocomotionEnv(EnvCore):
         """One 20 ms policy step. actions: (E, 1, 12). Returns obs, rewards (E, 1), terminated, truncated, info."""
         self.last_actions = self.actions
         self.actions = actions.reshape(self.num_envs, 12).clamp(-self.action_limit, self.action_limit)
-        self.sim.ctrl[:] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
+        self.sim.ctrl[:, :12] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
+        if self.mates:
+            self._drive_teammates()
         failed = self.sim.advance()
         self.episode_step += 1
         self._push()
