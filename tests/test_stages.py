@@ -306,10 +306,15 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert shipped.name == "policy.pt" and walker["sha256"] == hashlib.sha256(shipped.read_bytes()).hexdigest()[:16]
     assert "lowlevel_policy" not in fourth["evals"]["t20"]  # the tracker has no policy
     assert result_changes(fourth, legged, planned_stages(legged)) == ""
+    elsewhere = {**fourth, "stages": {name: str(tmp_path / "gone" / name) for name in fourth["stages"]}}
+    elsewhere["evals"] = {**fourth["evals"], "t40": {**fourth["evals"]["t40"]}}
+    elsewhere["evals"]["t40"]["lowlevel_policy"] = {**walker, "file": "/another/checkout/policy.pt"}
+    assert result_changes(elsewhere, legged, planned_stages(legged)) == ""  # the same policy in another checkout
     fourth["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # as if the shipped policy had been replaced
-    assert result_changes(fourth, legged, planned_stages(legged)) == (
-        "evaluation 't40' walked its robots with another locomotion policy than now"
-    )
+    stale = "evaluation 't40' walked its robots with another locomotion policy than now"
+    assert result_changes(fourth, legged, planned_stages(legged)) == stale
+    elsewhere["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # and its runs gone: the plan says which
+    assert result_changes(elsewhere, legged, planned_stages(legged)) == stale
 
 
 def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_shape(cli, tmp_path):

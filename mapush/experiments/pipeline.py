@@ -124,7 +124,8 @@ def variant(cfg: DictConfig) -> str:
 
 class PlannedStage(NamedTuple):
     """A stage of a job as it will be trained: its overrides, budget in iterations and env-steps, identity, the
-    iterations between its checkpoints, and its `stages.shape` (what its time per env-step depends on)."""
+    iterations between its checkpoints, its `stages.shape` (what its time per env-step depends on) and its
+    composed config (plain)."""
 
     name: str
     overrides: list[str]
@@ -133,6 +134,7 @@ class PlannedStage(NamedTuple):
     identity: str
     save_interval: int
     shape: tuple
+    cfg: dict
 
 
 def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
@@ -153,7 +155,9 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
             save_interval = min(save_interval, max(1, fit - 1))
         env_steps = iterations * per_iteration
         kind = stages.shape(stage_cfg)
-        planned.append(PlannedStage(name, overrides, iterations, env_steps, identities[name], save_interval, kind))
+        planned.append(
+            PlannedStage(name, overrides, iterations, env_steps, identities[name], save_interval, kind, stage_cfg)
+        )
     return planned
 
 
@@ -285,7 +289,7 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
         record = result.get("evals", {}).get(name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
         holds = holds and record.get("overrides", eval_overrides(spec)) == eval_overrides(spec)
-        if holds and not _walker_changed(record, result, cfg, name):
+        if holds and not _walker_changed(record, result, cfg, name, planned):
             kept[name] = {**record, "overrides": eval_overrides(spec)}
     curve, spec = result.get("curve"), budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
@@ -294,16 +298,22 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
     return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
 
 
-def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str) -> bool:
+def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str, planned: list[PlannedStage]) -> bool:
     """Whether the locomotion policy evaluation `name` would walk its robots with now (`lowlevel.policy`, or the
     shipped one) is another than the one its `record` names; a legged evaluation that named none counts as
-    changed."""
+    changed. The stage's run config says which policy, or where the run is gone (another machine, an archived
+    job), the stage's config as the experiment plans it now."""
     spec = cfg.experiment.evals[name]
-    run = result.get("stages", {}).get(eval_stage(cfg, spec))
-    if not run or not Path(run).is_dir():
-        return False  # a stage run not here (moved, or a hand-made result): nothing to compare with
-    lowlevel = to_plain(apply_overrides(load_run_config(run), eval_overrides(spec)))["lowlevel"]
-    return BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) != record.get("lowlevel_policy")
+    stage = eval_stage(cfg, spec)
+    run = result.get("stages", {}).get(stage)
+    if run and Path(run).is_dir():
+        stage_cfg = load_run_config(run)
+    else:
+        stage_cfg = OmegaConf.create(next(p.cfg for p in planned if p.name == stage))
+    lowlevel = to_plain(apply_overrides(stage_cfg, eval_overrides(spec)))["lowlevel"]
+    now = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel)
+    # the policy's hash says which it is; its file's path moves with the checkout
+    return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
 
 
 def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
@@ -333,7 +343,7 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], r
         recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
         if recorded is not None and recorded != now:
             return f"evaluation {name!r} changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})"
-        if _walker_changed(result["evals"][name], result, cfg, name):
+        if _walker_changed(result["evals"][name], result, cfg, name, planned):
             if "lowlevel_policy" not in result["evals"][name]:
                 return f"evaluation {name!r} recorded no locomotion policy"
             return f"evaluation {name!r} walked its robots with another locomotion policy than now"
