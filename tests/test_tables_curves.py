@@ -183,3 +183,17 @@ def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
     assert lines[lines.index(OTHERWISE_NOTE) + 1] == "- job: its stages changed (...)"
     assert "$\\dagger$" in latex(table) and sidecar(table)["made_otherwise"] == ["job: its stages changed (...)"]
     assert OTHERWISE_NOTE not in markdown(Table("t", "T", ["Task"], ["S.R."], [(["Cuboid"], [Cell([1.0])])]))
+
+
+def test_a_job_with_one_stale_evaluation_marks_only_that_evaluations_cells():
+    from mapush.report.tables import _collect
+
+    def job(name: str, reason: str) -> dict:
+        evals = {"main": {"success_rate": 0.8}, "go1": {"success_rate": 0.5}}
+        return {"job_dir": name, "method": "ours", "evals": evals, "made_otherwise": reason}
+
+    legged = job("a", "evaluation 'go1' walked its robots with another locomotion policy than now")
+    assert _collect([legged], "success_rate", 100.0, eval="main").otherwise == 0
+    assert _collect([legged], "success_rate", 100.0, eval="go1").otherwise == 1
+    whole = job("b", "its stages changed (mid: 1 -> 2)")
+    assert _collect([whole], "success_rate", 100.0, eval="main").otherwise == 1

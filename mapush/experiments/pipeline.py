@@ -14,6 +14,7 @@ import datetime
 import json
 import math
 import os
+import re
 import shutil
 import time
 from pathlib import Path
@@ -322,6 +323,14 @@ def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], roo
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
     root = Path(cfg.sweep_root if root is None else root)
     return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
+
+
+def changed_evaluation(reason: str) -> str | None:
+    """The one evaluation a `result_changes` reason names as changed ("evaluation 'go1' ..."), None when the
+    reason concerns the whole job (its stages, its set of evaluations, its curve): a table marks only that
+    evaluation's cells."""
+    match = re.match(r"evaluation '([^']+)' ", reason)
+    return match.group(1) if match else None
 
 
 def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> str:
