@@ -306,7 +306,8 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert shipped.name == "policy.pt" and walker["sha256"] == hashlib.sha256(shipped.read_bytes()).hexdigest()[:16]
     assert "lowlevel_policy" not in fourth["evals"]["t20"]  # the tracker has no policy
     assert result_changes(fourth, legged, planned_stages(legged)) == ""
-    elsewhere = {**fourth, "stages": {name: str(tmp_path / "gone" / name) for name in fourth["stages"]}}
+    gone = {name: str(tmp_path / "gone" / Path(path).relative_to(tmp_path)) for name, path in fourth["stages"].items()}
+    elsewhere = {**fourth, "stages": gone}  # the same stages' runs, on a machine that is not this one
     elsewhere["evals"] = {**fourth["evals"], "t40": {**fourth["evals"]["t40"]}}
     elsewhere["evals"]["t40"]["lowlevel_policy"] = {**walker, "file": "/another/checkout/policy.pt"}
     assert result_changes(elsewhere, legged, planned_stages(legged)) == ""  # the same policy in another checkout
