@@ -39,6 +39,7 @@ from mapush.errors import BadInput
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import Go1, proprioception, rotate_into_body, rotate_into_world
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
+from mapush.planning.geometry import rotate
 from mapush.sim.core import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
@@ -251,8 +252,9 @@ class LocomotionEnv(EnvCore):
 
     def _place_teammates(self, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
         """A `teammate_fraction` of the episodes start with every teammate standing beside the robot, alternately
-        on its left and right (the third and fourth one robot-length further back), `gap_m` from its side, headed
-        as it within 0.2 rad, each env with its own lean (`lean_mps`); in the others they stand parked."""
+        on its left and right (the third and fourth one robot-length and `row_gap_m` further back), `gap_m` from
+        its side, `along_m` ahead or behind, headed as it within `heading_rad`, each env with its own lean
+        (`lean_mps`); in the others they stand parked."""
         mates, n, k = self.cfg["level"]["randomize"]["teammates"], len(ids), len(self.mate_parked)
         used = self.rng.random(n) < self.teammate_fraction
         self.mate_used[ids] = used
@@ -260,11 +262,12 @@ class LocomotionEnv(EnvCore):
         length, width = self.robot["size"][:2]
         side = np.where(np.arange(k) % 2 == 0, 1.0, -1.0)  # (k,) left, right, ...
         lateral = side * (width + self.rng.uniform(*mates["gap_m"], size=(n, k)))
-        along = -(length + 0.1) * (np.arange(k) // 2) + self.rng.uniform(-0.3, 0.3, size=(n, k))
+        along = -(length + mates["row_gap_m"]) * (np.arange(k) // 2) + self.rng.uniform(*mates["along_m"], size=(n, k))
         cos, sin = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
         offset = np.stack([cos * along - sin * lateral, sin * along + cos * lateral], -1)  # (n, k, 2)
         placed = np.where(used[:, None, None], xy[:, None, :] + offset, self.mate_parked[None])
-        heading = np.where(used[:, None], yaw[:, None] + self.rng.uniform(-0.2, 0.2, size=(n, k)), 0.0)
+        turn = self.rng.uniform(-mates["heading_rad"], mates["heading_rad"], size=(n, k))
+        heading = np.where(used[:, None], yaw[:, None] + turn, 0.0)
         self.mates.place(self.sim.qpos, self.sim.qvel, ids, placed, heading)
 
     def _drive_teammates(self) -> None:
@@ -277,10 +280,7 @@ class LocomotionEnv(EnvCore):
         toward = self.robot_qpos[:, None, :2] - mates["xy"]
         toward /= np.maximum(np.linalg.norm(toward, axis=-1, keepdims=True), 1e-6)
         velocity = (walk + self.lean[:, None, None] * toward) * self.mate_used[:, None, None]  # (E, k, 2) world
-        cos, sin = np.cos(mates["yaw"]), np.sin(mates["yaw"])
-        body = np.stack(
-            [cos * velocity[..., 0] + sin * velocity[..., 1], -sin * velocity[..., 0] + cos * velocity[..., 1]], -1
-        )
+        body = rotate(velocity, mates["yaw"], inverse=True)  # into each teammate's frame
         self.mates.command(self.sim.ctrl, qpos, qvel, np.concatenate([body, np.zeros_like(body[..., :1])], -1))
 
     def _sample_commands(self, n: int) -> torch.Tensor:
