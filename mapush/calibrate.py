@@ -10,8 +10,8 @@ Its force limit is fitted to the pushes: the tracker pushes the same objects wit
 per value) and the smallest value whose steady object speed best matches the Go1's wins (a push that does not
 saturate the robot fits every larger limit equally). The fitted values replace `lag`,
 `yaw_lag` and `max_force` in `conf/lowlevel/tracker.yaml`, except a lag whose axis the robot does not hold in steady
-state (`STEADY_MIN`), which is reported instead; `calibration.json` and `calibration.png` (both responses) go to the
-output dir.
+state (`STEADY_MIN`), which is reported instead and stays as it was, also in the tracker that the force limit is
+fitted with (`push_lags`); `calibration.json` and `calibration.png` (both responses) go to the output dir.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from omegaconf import OmegaConf
 
 from mapush.config import CONF_DIR, compose_config, to_plain
 from mapush.lowlevel import BACKENDS
@@ -161,8 +162,15 @@ def calibrate(
     linear = np.concatenate([free["robot_vel"][:n, :, 0], free["robot_vel"][n : 2 * n, :, 1]])
     lag = fit_lag(linear, np.concatenate([commands[:n, 0], commands[n : 2 * n, 1]]), free["dt"])
     yaw_lag = fit_lag(free["robot_vel"][2 * n :, :, 2], commands[2 * n :, 2], free["dt"])
-    push_speed = max(steps)
     tail = max(1, round(0.5 / free["dt"]))  # steady state: the last 0.5 s
+    steady = steady_fractions(free["robot_vel"], commands, tail)
+    untrusted = {LAG_OF_AXIS[axis]: share for axis, share in steady.items() if share < STEADY_MIN}
+    # the force limit is fitted with the lags the tracker will have: a refused fit keeps the config's own
+    kept = OmegaConf.load(config_path)
+    push_lags = {
+        key: float(kept[key]) if key in untrusted else value for key, value in (("lag", lag), ("yaw_lag", yaw_lag))
+    }
+    push_speed = max(steps)
     pushes = {}
     for task in tasks:
         legged_cfg = to_plain(compose_config([*go1_overrides, f"task={task}"]))
@@ -170,7 +178,7 @@ def calibrate(
             legged_cfg, np.array([[push_speed, 0.0, 0.0]]), push_layout(1, legged_cfg), settle_s, duration_s
         )
         tracker_cfg = to_plain(compose_config(["lowlevel=tracker", "task.num_agents=1", f"task={task}"]))
-        tracker_cfg["lowlevel"].update(lag=lag, yaw_lag=yaw_lag)
+        tracker_cfg["lowlevel"].update(push_lags)
         grid = len(FORCE_GRID)  # one env per candidate force limit
         run = run_steps(
             tracker_cfg,
@@ -185,17 +193,16 @@ def calibrate(
     # every limit above what the push needs fits equally well: take the smallest of the best fits
     max_force = float(FORCE_GRID[error <= error.min() * 1.01 + 1e-6][0]) if pushes else None
     fitted = {"lag": lag, "yaw_lag": yaw_lag, **({"max_force": max_force} if max_force is not None else {})}
-    steady = steady_fractions(free["robot_vel"], commands, tail)
-    untrusted = {LAG_OF_AXIS[axis]: share for axis, share in steady.items() if share < STEADY_MIN}
     warnings = [
         f"{key}: the robot holds {share:.0%} of its step command after {duration_s:g} s, which no first-order lag "
-        f"does; {key} left as it was in {config_path}"
+        f"does; {key} left as it was in {config_path} ({push_lags[key]:.4g} s, which the force fit used)"
         for key, share in untrusted.items()
     ]
     write_tracker_config(config_path, {k: v for k, v in fitted.items() if k not in untrusted}, source)
     summary = {
         "fitted": fitted,
         "steady_fraction": steady,
+        "push_lags": push_lags,
         "warnings": warnings,
         "reference": reference,
         "steps": steps,

@@ -287,6 +287,24 @@ def test_calibrating_the_tracker_against_itself_recovers_its_lag(cli, tmp_path):
     assert (tmp_path / "cal" / "calibration.png").stat().st_size > 0
 
 
+def test_a_refused_lag_is_not_what_the_force_limit_is_fitted_with(cli, tmp_path):
+    """A robot of a 1 s lag holds ~70 % of a step after 1.5 s: its lag is refused, and the pushes that fit the force
+    limit run the tracker with the lag that stays in the config, not with the refused one."""
+    from mapush.calibrate import default_config_path
+
+    config = tmp_path / "tracker.yaml"
+    shutil.copy(default_config_path(), config)
+    kept = OmegaConf.load(config)
+    proc = cli("calibrate", "lowlevel=tracker", "lowlevel.lag=1.0", "--tasks", "cuboid", "--duration", "1.5",
+               "--settle", "0", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    assert summary["fitted"]["lag"] == pytest.approx(1.0, rel=0.1)  # the fit itself finds the slow robot's lag
+    assert [w.split(":")[0] for w in summary["warnings"]] == ["lag"]
+    assert summary["push_lags"] == {"lag": pytest.approx(kept.lag), "yaw_lag": summary["fitted"]["yaw_lag"]}
+    assert OmegaConf.load(config).lag == kept.lag
+
+
 def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli, low_run, tmp_path):
     from mapush.calibrate import default_config_path, physical_bounds
 
