@@ -167,9 +167,8 @@ def calibrate(
     untrusted = {LAG_OF_AXIS[axis]: share for axis, share in steady.items() if share < STEADY_MIN}
     # the force limit is fitted with the lags the tracker will have: a refused fit keeps the config's own
     kept = OmegaConf.load(config_path)
-    push_lags = {
-        key: float(kept[key]) if key in untrusted else value for key, value in (("lag", lag), ("yaw_lag", yaw_lag))
-    }
+    lags = {"lag": lag, "yaw_lag": yaw_lag}
+    push_lags = {key: float(kept[key]) if key in untrusted else value for key, value in lags.items()}
     push_speed = max(steps)
     pushes = {}
     for task in tasks:
@@ -192,7 +191,7 @@ def calibrate(
     error = sum((p["tracker"][:, -tail:].mean(1) - p["legged"][-tail:].mean()) ** 2 for p in pushes.values())  # (G,)
     # every limit above what the push needs fits equally well: take the smallest of the best fits
     max_force = float(FORCE_GRID[error <= error.min() * 1.01 + 1e-6][0]) if pushes else None
-    fitted = {"lag": lag, "yaw_lag": yaw_lag, **({"max_force": max_force} if max_force is not None else {})}
+    fitted = {**lags, **({"max_force": max_force} if max_force is not None else {})}
     warnings = [
         f"{key}: the robot holds {share:.0%} of its step command after {duration_s:g} s, which no first-order lag "
         f"does; {key} left as it was in {config_path} ({push_lags[key]:.4g} s, which the force fit used)"

@@ -325,8 +325,13 @@ def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], roo
     return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
 
 
+def _about_evaluation(name: str, what: str) -> str:
+    """A `result_changes` reason that concerns one evaluation only; `changed_evaluation` reads its name back."""
+    return f"evaluation {name!r} {what}"
+
+
 def changed_evaluation(reason: str) -> str | None:
-    """The one evaluation a `result_changes` reason names as changed ("evaluation 'go1' ..."), None when the
+    """The one evaluation a `result_changes` reason names as changed (`_about_evaluation`), None when the
     reason concerns the whole job (its stages, its set of evaluations, its curve): a table marks only that
     evaluation's cells."""
     match = re.match(r"evaluation '([^']+)' ", reason)
@@ -351,11 +356,11 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], r
     for name in evals:  # results made before evaluations recorded their overrides are taken as they are
         recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
         if recorded is not None and recorded != now:
-            return f"evaluation {name!r} changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})"
+            return _about_evaluation(name, f"changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})")
         if _walker_changed(result["evals"][name], result, cfg, name, planned):
             if "lowlevel_policy" not in result["evals"][name]:
-                return f"evaluation {name!r} recorded no locomotion policy"
-            return f"evaluation {name!r} walked its robots with another locomotion policy than now"
+                return _about_evaluation(name, "recorded no locomotion policy")
+            return _about_evaluation(name, "walked its robots with another locomotion policy than now")
     if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
         return "its learning curve was added or dropped"
     return ""
