@@ -149,6 +149,23 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     for run in map(Path, results[0]["stages"].values()):
         assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]  # trained once, not resumed
 
+    # the main budget asks for the mid level's own curve too: drawn once, into the mid run, and kept in the result
+    mid_curve = results[0]["stage_curves"]["mid"]
+    assert [p["iteration"] for p in mid_curve["points"]] == [0] and "high" not in results[0]["stage_curves"]
+    drawn = Path(results[0]["stages"]["mid"]) / pipeline.STAGE_CURVE
+    assert json.loads(drawn.read_text())["points"] == mid_curve["points"]
+    assert results[1].get("stage_curves", {}) == {}  # the scale smoke budget asks for none
+    # a job finished before its budget asked for the stage's curve gets it on the next run, read, not drawn again
+    main_result = next(p for p in root.glob(f"main_*/*/{RESULT}"))
+    lacking = json.loads(main_result.read_text())
+    del lacking["stage_curves"]
+    main_result.write_text(json.dumps(lacking))
+    drawn_at = drawn.stat().st_mtime_ns
+    again = _sweep(cli, root, "sweep", "experiment=main", "method=sa", "task=cylinder")
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert json.loads(main_result.read_text())["stage_curves"]["mid"] == mid_curve
+    assert drawn.stat().st_mtime_ns == drawn_at
+
 
 def _job_cfg(root: Path, *overrides: str):
     return compose_config(
@@ -348,3 +365,9 @@ def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_sh
     longer = cli(*args, f"archive={archive}", "experiment.budgets.smoke.stages.mid.env_steps=64")
     assert "~2.00 core-h" in longer.stdout
     assert "training time: not estimated" in cli(*args, "archive=null").stdout
+
+
+def test_a_curve_for_a_stage_no_method_has_is_refused_with_the_valid_ones(tmp_path):
+    cfg = _job_cfg(tmp_path, "experiment.budgets.smoke.curve.stages=[midd]")
+    with pytest.raises(BadInput, match=r"curve stage 'midd'; valid: .*high.*mid"):
+        planned_stages(cfg)

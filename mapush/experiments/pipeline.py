@@ -5,6 +5,10 @@ Stages live in the sweep root's store (`stages.py`), one run per stage identity,
 experiment that composes the same stage; a job dir holds `result.json`, which names the run dir of each stage.
 Re-running a job skips it when `result.json` exists, reuses stages whose run is finished (it has the exported
 policy), resumes a stage cut after a checkpoint, and restarts one cut before.
+
+Besides the evaluated stage's learning curve (`curve`), a budget may ask for the curves of the stages trained
+before it (`curve.stages`, e.g. the mid level under a high level): each is drawn once, on the stage's own env, into
+its run dir (`STAGE_CURVE`) and copied into the result of every job that uses the stage (`stage_curves`).
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 
 from mapush import train as training
-from mapush.config import apply_overrides, compose_config, group_options, load_run_config, to_plain
+from mapush.config import apply_overrides, compose_config, group_file, group_options, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
@@ -40,6 +44,8 @@ but read the config files anew for each job."""
 RESULT = "result.json"
 SUPERSEDED = "result.superseded.json"
 """Where a job's earlier result goes when the experiment changed under it (`result_changes`)."""
+STAGE_CURVE = "stage_curve.json"
+"""A stage's own learning curve, in its run dir: drawn once for every job that uses the stage."""
 STAGE_BUDGET_KEYS = ("num_envs", "env_steps")
 """What a budget sets for each stage (and what a stage's `by_task` entry may set for one task)."""
 
@@ -74,6 +80,10 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
             f"budget {cfg.budget!r} draws its learning curve with evaluation {curve.eval!r}, which runs another "
             f"stage than the evaluated {evaluated!r}; valid: an evaluation of {evaluated!r}"
         )
+    known = {name for method in group_options("method") for name in group_file("method", method).stages}
+    unknown = [name for name in (curve.get("stages", []) if curve else []) if name not in known]
+    if unknown:
+        raise BadInput(f"budget {cfg.budget!r} curve stage {unknown[0]!r}; valid: {', '.join(sorted(known))}")
     job = [f"task={cfg.task.name}", f"seed={cfg.seed}"]
     if cfg.agents is not None:
         job.append(f"task.num_agents={cfg.agents}")
@@ -195,7 +205,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         result = json.loads(done.read_text())
         changed = result_changes(result, cfg, planned)
         if not changed:
-            return result
+            return _with_stage_curves(result, cfg, done)
         if not cfg.rerun_changed:
             print(f"mapush: {job_dir.name}: {changed} since its {RESULT}; kept (rerun_changed=true runs it again)")
             return result
@@ -244,6 +254,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         "stage_core_s": recorded_stage_seconds(runs),  # the training cost, kept when the runs are gone
         "evals": evals,
         "curve": kept_curve or _curve(cfg, evaluated),
+        "stage_curves": stage_curves(cfg, runs),
         "eval_wall_s": round(time.perf_counter() - started, 1),  # this run's; `supersedes` names the earlier's
         "threads": threads,
         "machine_cores": os.cpu_count(),
@@ -251,10 +262,72 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     }
     if earlier is not None:
         result["supersedes"] = SUPERSEDED  # the result it replaces, whose evaluations it keeps where they hold
-    tmp = done.with_suffix(".tmp")
+    return _write_result(done, result)
+
+
+def _write_result(path: Path, result: dict) -> dict:
+    """Write a job's `result` to `path` atomically; returns it."""
+    tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(result, indent=2) + "\n")
-    os.replace(tmp, done)
+    os.replace(tmp, path)
     return result
+
+
+def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, dict]:
+    """The learning curves of the stages the budget's `curve.stages` names that the job trains before its evaluated
+    stage: each stage's checkpoints evaluated on its own env (the mid level alone, on its 20 s pushes), at the
+    curve's marks, with the budget's episodes and seeds, and the experiment's budget rule.
+
+    A stage's curve is drawn once, into its run dir (`STAGE_CURVE`), and read from there by every other job that
+    uses the stage. A stage whose run is not here keeps the curve `have` holds for it (an earlier result's), if
+    that was drawn alike; otherwise it has none.
+    """
+    budget = budget_of(cfg)
+    curve = budget.get("curve")
+    names = [n for n in (curve.get("stages", []) if curve else []) if n in runs and n != evaluated_stage(cfg)]
+    if not names:
+        return {}
+    spec = {
+        "every_env_steps": float(curve.every_env_steps),
+        "episodes": int(budget.eval.episodes),
+        "seeds": [int(s) for s in budget.eval.seeds],
+    }
+    rule = OmegaConf.to_container(cfg.experiment.budget_rule)
+    drawn = {}
+    for name in names:
+        earlier = (have or {}).get(name)
+        if Path(runs[name]).is_dir():
+            drawn[name] = {**spec, "rule": rule, "points": _stage_curve_points(Path(runs[name]), spec)}
+        elif earlier and {k: earlier.get(k) for k in spec} == spec:
+            drawn[name] = {**earlier, "rule": rule}  # judged by today's rule
+    return drawn
+
+
+def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
+    """The points of a stage's own learning curve drawn as `spec` says: read from its run dir when drawn alike
+    before, else drawn now and written there."""
+    path = run_dir / STAGE_CURVE
+    with contextlib.suppress(OSError, ValueError):
+        drawn = json.loads(path.read_text())
+        if {k: drawn.get(k) for k in spec} == spec:
+            return drawn["points"]
+    cfg = to_plain(load_run_config(run_dir))
+    points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"])
+    _write_result(path, {**spec, "points": points})
+    return points
+
+
+def _with_stage_curves(result: dict, cfg: DictConfig, path: Path) -> dict:
+    """A finished job's `result` with the stage curves its budget asks for now and it lacks, drawn where the stage
+    runs are here (the evaluation time counted in `eval_wall_s`) and written back to `path`."""
+    started = time.perf_counter()
+    runs = {name: Path(run) for name, run in result.get("stages", {}).items()}
+    curves = stage_curves(cfg, runs, result.get("stage_curves"))
+    if curves == result.get("stage_curves", {}):
+        return result
+    result["stage_curves"] = curves
+    result["eval_wall_s"] = round(float(result.get("eval_wall_s", 0.0)) + time.perf_counter() - started, 1)
+    return _write_result(path, result)
 
 
 def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:
