@@ -368,6 +368,6 @@ def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_sh
 
 
 def test_a_curve_for_a_stage_no_method_has_is_refused_with_the_valid_ones(tmp_path):
-    cfg = _job_cfg(tmp_path, "experiment.budgets.smoke.curve.stages=[midd]")
+    cfg = _job_cfg(tmp_path, "+experiment.budgets.smoke.curve.stages.midd={}")
     with pytest.raises(BadInput, match=r"curve stage 'midd'; valid: .*high.*mid"):
         planned_stages(cfg)

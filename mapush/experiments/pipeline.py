@@ -81,7 +81,7 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
             f"stage than the evaluated {evaluated!r}; valid: an evaluation of {evaluated!r}"
         )
     known = {name for method in group_options("method") for name in group_file("method", method).stages}
-    unknown = [name for name in (curve.get("stages", []) if curve else []) if name not in known]
+    unknown = [name for name in (curve.get("stages", {}) if curve else {}) if name not in known]
     if unknown:
         raise BadInput(f"budget {cfg.budget!r} curve stage {unknown[0]!r}; valid: {', '.join(sorted(known))}")
     job = [f"task={cfg.task.name}", f"seed={cfg.seed}"]
@@ -276,7 +276,8 @@ def _write_result(path: Path, result: dict) -> dict:
 def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, dict]:
     """The learning curves of the stages the budget's `curve.stages` names that the job trains before its evaluated
     stage: each stage's checkpoints evaluated on its own env (the mid level alone, on its 20 s pushes), at the
-    curve's marks, with the budget's episodes and seeds, and the experiment's budget rule.
+    curve's marks, with the budget's evaluation seeds and the stage's `episodes` (by default the budget's), and the
+    experiment's budget rule.
 
     A stage's curve is drawn once, into its run dir (`STAGE_CURVE`), and read from there by every other job that
     uses the stage. A stage whose run is not here keeps the curve `have` holds for it (an earlier result's), if
@@ -284,17 +285,15 @@ def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = Non
     """
     budget = budget_of(cfg)
     curve = budget.get("curve")
-    names = [n for n in (curve.get("stages", []) if curve else []) if n in runs and n != evaluated_stage(cfg)]
-    if not names:
-        return {}
-    spec = {
-        "every_env_steps": float(curve.every_env_steps),
-        "episodes": int(budget.eval.episodes),
-        "seeds": [int(s) for s in budget.eval.seeds],
-    }
+    asked = curve.get("stages", {}) if curve else {}
     rule = OmegaConf.to_container(cfg.experiment.budget_rule)
     drawn = {}
-    for name in names:
+    for name in (n for n in asked if n in runs and n != evaluated_stage(cfg)):
+        spec = {
+            "every_env_steps": float(curve.every_env_steps),
+            "episodes": int((asked[name] or {}).get("episodes", budget.eval.episodes)),
+            "seeds": [int(s) for s in budget.eval.seeds],
+        }
         earlier = (have or {}).get(name)
         if Path(runs[name]).is_dir():
             drawn[name] = {**spec, "rule": rule, "points": _stage_curve_points(Path(runs[name]), spec)}
