@@ -197,3 +197,34 @@ def test_a_job_with_one_stale_evaluation_marks_only_that_evaluations_cells():
     assert _collect([legged], "success_rate", 100.0, eval="go1").otherwise == 1
     whole = job("b", "its stages changed (mid: 1 -> 2)")
     assert _collect([whole], "success_rate", 100.0, eval="main").otherwise == 1
+
+
+def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli, tmp_path):
+    def points(rates):
+        return [{"iteration": k, "env_steps": (k + 1) * 2_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
+
+    mids = {0: [0.5, 0.7, 0.76, 0.8, 0.82], 1: [0.4, 0.6, 0.7, 0.72, 0.8], 2: None}  # seed 2: its runs were gone
+    root = tmp_path / "runs" / "scale_quick"
+    for seed, rates in mids.items():
+        job = root / f"agents=3,method=ours,seed={seed},task=cylinder"
+        job.mkdir(parents=True)
+        result = {
+            "table": "scale", "variant": "quick", "method": "ours", "task": "cylinder", "num_agents": 3, "seed": seed,
+            "stages": {"mid": "gone/mid", "high": "gone/high"},
+            "evals": {"main": {"success_rate": 0.8, "completion_time": 0.5}, "mid": {"success_rate": 0.8}},
+            "curve": {"eval": "main", "every_env_steps": 2e6, "reach": 0.5, "rule": RULE,
+                      "points": points([0.6, 0.7, 0.8])},
+        }  # fmt: skip
+        if rates:
+            result["stage_curves"] = {"mid": {"every_env_steps": 2e6, "rule": RULE, "points": points(rates)}}
+        (job / RESULT).write_text(json.dumps(result))
+    proc = cli("tables", "--runs", tmp_path / "runs", "--out", tmp_path / "out", "--table", "scale")
+    assert proc.returncode == 0, proc.stderr
+    md = (tmp_path / "out" / "scale_quick.md").read_text()
+    # the last fifth of 10M: 8M -> 10M, seed 0 +2 and seed 1 +8 points: +5.0 +- 3.0, over the 2 seeds with a curve
+    assert (
+        "3 robots, mid level: the last 20 % of the budget added +5.0 \u00b1 3.0 points over 2 seeds (rule: < 3): "
+        "NOT flattened: still learning (1 of 3 jobs have no curve of it: their runs were not here to draw it)"
+    ) in md
+    assert "3 robots: the last 20 % of the budget added +10.0 \u00b1 0.0 points over 3 seeds" in md  # the hierarchy's
+    assert (tmp_path / "out" / "scale_quick_mid_curves.png").stat().st_size > 1000

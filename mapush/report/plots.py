@@ -1,6 +1,7 @@
 """The tables' plots, and what is read off the learning curves of sweep jobs (`result.json`'s `curve`: the
-evaluated stage's checkpoints, evaluated as one of the experiment's evaluations): the env-steps to a success
-rate, and whether a budget has flattened."""
+evaluated stage's checkpoints, evaluated as one of the experiment's evaluations; its `stage_curves`: those of a
+stage trained before it, on that stage's own env): the env-steps to a success rate, and whether a budget has
+flattened."""
 
 from __future__ import annotations
 
@@ -12,9 +13,19 @@ import numpy as np
 from mapush.eval.curves import first_reaching, tail_gain
 
 
-def seed_curves(results: list[dict]) -> list[list[dict]]:
+def curve_of(result: dict, stage: str | None = None) -> dict | None:
+    """A job's learning curve: its evaluated stage's (`stage` None), or the own curve of the stage named."""
+    return result.get("curve") if stage is None else (result.get("stage_curves") or {}).get(stage)
+
+
+def drawn_stages(results: list[dict]) -> list[str]:
+    """The stages trained before the evaluated one whose own curves some of `results` carry."""
+    return sorted({name for r in results for name in (r.get("stage_curves") or {})})
+
+
+def seed_curves(results: list[dict], stage: str | None = None) -> list[list[dict]]:
     """The curve points of each result that has a curve (one list per training seed)."""
-    return [r["curve"]["points"] for r in results if r.get("curve") and r["curve"]["points"]]
+    return [c["points"] for c in map(lambda r: curve_of(r, stage), results) if c and c["points"]]
 
 
 def mean_curve(per_seed: list[list[dict]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -41,11 +52,12 @@ def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
     return values, sources, unreached
 
 
-def budget_verdict(label: str, results: list[dict]) -> str | None:
-    """Whether the budget of `results` has flattened by their experiment's rule (the success gained over the
-    last `tail` of the env-steps, mean over seeds, below `max_gain`), and where the mean curve peaked when that
-    tail lost `max_gain` or more (a budget past the peak is no better than a shorter one); None without curves."""
-    curves = [r["curve"] for r in results if r.get("curve") and r["curve"]["points"]]
+def budget_verdict(label: str, results: list[dict], stage: str | None = None) -> str | None:
+    """Whether the budget of `results` (of their evaluated stage, or of `stage`) has flattened by their
+    experiment's rule (the success gained over the last `tail` of the env-steps, mean over seeds, below
+    `max_gain`), and where the mean curve peaked when that tail lost `max_gain` or more (a budget past the peak is
+    no better than a shorter one); None without curves."""
+    curves = [c for c in (curve_of(r, stage) for r in results) if c and c["points"]]
     if not curves:
         return None
     rule = curves[0]["rule"]
@@ -71,10 +83,28 @@ def budget_verdict(label: str, results: list[dict]) -> str | None:
     )
 
 
-def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str) -> bool:
+def stage_verdicts(label: str, results: list[dict], stages: list[str]) -> list[str]:
+    """`budget_verdict` of each of `stages` that `results` trained before their evaluated stage (the last they
+    name), by the stage's own curves, each saying how many of those jobs lack one (their runs were not here)."""
+    verdicts = []
+    for stage in stages:
+        trained = [r for r in results if stage in list(r.get("stages", {}))[:-1]]
+        if not trained:
+            continue
+        name = f"{label}, {stage} level"
+        verdict = budget_verdict(name, trained, stage) or f"{name}: no curve"
+        lacking = sum(curve_of(r, stage) is None for r in trained)
+        if lacking:
+            verdict += f" ({lacking} of {len(trained)} jobs have no curve of it: their runs were not here to draw it)"
+        verdicts.append(verdict)
+    return verdicts
+
+
+def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str, stage: str | None = None) -> bool:
     """Evaluated success against env-steps, mean +- std over seeds: one panel per key of `panels`, one line per
-    label (`{panel: {label: results}}`). Returns False (and draws nothing) when no result has a curve."""
-    drawn = {p: {k: seed_curves(v) for k, v in lines.items()} for p, lines in panels.items()}
+    label (`{panel: {label: results}}`), of the evaluated stages' curves or of `stage`'s own. Returns False (and
+    draws nothing) when no result has such a curve."""
+    drawn = {p: {k: seed_curves(v, stage) for k, v in lines.items()} for p, lines in panels.items()}
     drawn = {p: {k: v for k, v in lines.items() if v} for p, lines in drawn.items()}
     drawn = {p: lines for p, lines in drawn.items() if lines}
     if not drawn:

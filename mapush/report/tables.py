@@ -86,6 +86,9 @@ def main_table(results: list[dict], variant: str) -> Table:
         findings += _main_findings(mine, paper, task)
     for task, lines in panels.items():
         findings += filter(None, (plots.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
+    drawn = plots.drawn_stages(mine)
+    for task, lines in panels.items():
+        findings += [v for m, r in lines.items() for v in plots.stage_verdicts(f"{m} / {task}", r, drawn)]
     return Table(
         f"main_{variant}",
         f"Main results ({variant}): ours (paper)",
@@ -266,6 +269,8 @@ def scale_table(results: list[dict], variant: str) -> Table:
         rows.append(([str(n)], cells))
     lines = {_robots(n): _matching(mine, num_agents=n) for n in counts}
     findings = list(filter(None, (plots.budget_verdict(label, r) for label, r in lines.items())))
+    drawn = plots.drawn_stages(mine)
+    findings += [v for label, r in lines.items() for v in plots.stage_verdicts(label, r, drawn)]
     measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
     if measured:
         best = max(measured)
@@ -357,6 +362,9 @@ def write_tables(
                 plots.scale_plot(table, out / f"{table.name}.png")
             title = f"{table.title.split(':')[0]}: learning curves, evaluated checkpoints"
             plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
+            for stage in plots.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
+                title = f"{table.title.split(':')[0]}: the {stage} level's own learning curves, evaluated checkpoints"
+                plots.curves_plot(table.curves, out / f"{table.name}_{stage}_curves.png", title, stage)
             tables.append(table)
     return tables, kept
 
