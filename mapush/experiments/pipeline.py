@@ -262,15 +262,15 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     }
     if earlier is not None:
         result["supersedes"] = SUPERSEDED  # the result it replaces, whose evaluations it keeps where they hold
-    return _write_result(done, result)
+    return _write_json(done, result)
 
 
-def _write_result(path: Path, result: dict) -> dict:
-    """Write a job's `result` to `path` atomically; returns it."""
+def _write_json(path: Path, data: dict) -> dict:
+    """Write `data` (a job's result, a stage's curve) to `path` atomically; returns it."""
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(result, indent=2) + "\n")
+    tmp.write_text(json.dumps(data, indent=2) + "\n")
     os.replace(tmp, path)
-    return result
+    return data
 
 
 def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, dict]:
@@ -312,7 +312,7 @@ def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
             return drawn["points"]
     cfg = to_plain(load_run_config(run_dir))
     points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"])
-    _write_result(path, {**spec, "points": points})
+    _write_json(path, {**spec, "points": points})
     return points
 
 
@@ -326,7 +326,7 @@ def _with_stage_curves(result: dict, cfg: DictConfig, path: Path) -> dict:
         return result
     result["stage_curves"] = curves
     result["eval_wall_s"] = round(float(result.get("eval_wall_s", 0.0)) + time.perf_counter() - started, 1)
-    return _write_result(path, result)
+    return _write_json(path, result)
 
 
 def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:

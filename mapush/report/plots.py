@@ -25,7 +25,8 @@ def drawn_stages(results: list[dict]) -> list[str]:
 
 def seed_curves(results: list[dict], stage: str | None = None) -> list[list[dict]]:
     """The curve points of each result that has a curve (one list per training seed)."""
-    return [c["points"] for c in map(lambda r: curve_of(r, stage), results) if c and c["points"]]
+    curves = (curve_of(r, stage) for r in results)
+    return [c["points"] for c in curves if c and c["points"]]
 
 
 def mean_curve(per_seed: list[list[dict]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
