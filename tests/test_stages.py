@@ -96,11 +96,16 @@ def test_the_identities_of_stages_already_trained_stay_as_they_were():
     # on 2026-11-26, by a sweep with `task.object.friction=[0.2,0.25]` typed on its command line: the value the task
     # now derives from the original's (the PhysX average). A key added to the configs since (at its neutral
     # default) must not make them other stages, nor retrain them
-    assert _identities("task=cylinder") == {"mid": "0676bfba46653ac6", "high": "b88e5f249bda72ee"}
+    # (their high level trained on the paper's curved paths, the default until 2026-11-27, 12:10: now planned maps,
+    # another high stage on the same mid stage)
+    curved = "method.stages.high=['level=high','mid=@mid','level.path.plan_in_training=false']"
+    assert _identities("task=cylinder", curved) == {"mid": "0676bfba46653ac6", "high": "b88e5f249bda72ee"}
+    now = _identities("task=cylinder")
+    assert now["mid"] == "0676bfba46653ac6" and now["high"] != "b88e5f249bda72ee"
     assert _identities("task=cylinder", "overrides=['train.init_from=runs/x']")["mid"] != "0676bfba46653ac6"
     # robot dynamics drawn in training: the stages the main table's sweep trained with them (2026-11-26, 15:15-16:30)
     ranges = "lowlevel.randomize={lag:[0.1,0.45],yaw_lag:[0.02,0.4],max_force:[20.0,45.0]}"
-    assert _identities("task=cuboid", f"overrides=['{ranges}']") == {
+    assert _identities("task=cuboid", f"overrides=['{ranges}']", curved) == {
         "mid": "c2bc999e7f09d7ec",
         "high": "fb88ed241aef2240",
     }
