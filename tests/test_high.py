@@ -94,10 +94,12 @@ def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
 
 
 @pytest.mark.parametrize("evaluation", [False, True])
-def test_training_plans_its_paths_on_evaluation_maps_when_asked(high_cfg, evaluation):
+def test_training_plans_its_paths_on_evaluation_maps_unless_told_not_to(high_cfg, evaluation):
     from mapush.levels import make_env
 
-    assert (make_env(high_cfg, evaluation).planner is None) != evaluation  # by default only evaluation plans
+    assert make_env(high_cfg, evaluation).planner is not None  # by default training plans too, as evaluation does
+    high_cfg["level"]["path"]["plan_in_training"] = False  # the paper's curved training paths
+    assert (make_env(high_cfg, evaluation).planner is None) != evaluation
     high_cfg["level"]["path"]["plan_in_training"] = True
     high_cfg["num_envs"] = 3
     env = make_env(high_cfg, evaluation)
