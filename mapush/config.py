@@ -149,11 +149,16 @@ def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], comman
     OmegaConf.save(OmegaConf.create({"hydra": hydra_node}), hydra_dir / "hydra.yaml")
 
 
+ABSENT_MEANT = {"level.path.plan_in_training": False}
+"""Settings whose default changed after they were added: a run saved before one existed ran as this value."""
+
+
 def load_run_config(run_dir: Path) -> DictConfig:
     """The composed config a run was made with; BadInput if `run_dir` is not a run.
 
     Root settings, and settings of the run's level at any depth, added to mapush after the run was made (e.g.
-    `log`, `level.path.plan_in_training`) take their current defaults; everything the run saved stays as it was.
+    `log`) take their current defaults, or the value runs ran with before they existed (`ABSENT_MEANT`);
+    everything the run saved stays as it was.
     """
     path = Path(run_dir) / "config.yaml"
     if not Path(run_dir).is_dir() or not path.is_file():
@@ -165,6 +170,11 @@ def load_run_config(run_dir: Path) -> DictConfig:
     if (CONF_DIR / "level" / f"{name}.yaml").is_file():
         root.level = level_defaults(name)
     cfg = OmegaConf.merge(root, run)
+    for key, value in ABSENT_MEANT.items():
+        parent, _, leaf = key.rpartition(".")
+        node = OmegaConf.select(run, parent)
+        if node is not None and leaf not in node:
+            OmegaConf.update(cfg, key, value)
     mid = cfg.get("mid")
     if mid and not Path(mid).is_absolute() and (Path(run_dir) / mid).exists():  # a shipped hierarchy's own mid level
         cfg.mid = str((Path(run_dir) / mid).resolve())
