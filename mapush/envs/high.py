@@ -36,7 +36,8 @@ class HighPushEnv(PushEnv):
         mid: the frozen mid level (`mapush.rl.frozen.load_mid_policy`).
         num_envs: overrides `cfg["num_envs"]`.
         planner: an `ObjectPlanner` to plan every episode's reference path among obstacles placed as at
-            evaluation; None draws the paper's random curved paths with obstacles beside them (training).
+            evaluation (evaluation, and training by default); None draws the paper's random curved paths with
+            obstacles beside them (training with `level.path.plan_in_training=false`).
         evaluation: an evaluation env (`PushEnv`: no drawn robot dynamics; `mapush.levels.make_env` passes the
             planner that evaluation asks for).
     """

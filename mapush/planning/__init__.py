@@ -1,1 +1,2 @@
-"""Reference paths for the high level: random curved paths for training, OMPL plans for evaluation."""
+"""Reference paths for the high level: OMPL plans (evaluation, and training by default) and the paper's random
+curved paths (training with `level.path.plan_in_training=false`)."""
