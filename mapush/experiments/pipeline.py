@@ -297,9 +297,14 @@ def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = Non
         earlier = (have or {}).get(name)
         if Path(runs[name]).is_dir():
             drawn[name] = {**spec, "rule": rule, "points": _stage_curve_points(Path(runs[name]), spec)}
-        elif earlier and {k: earlier.get(k) for k in spec} == spec:
+        elif _drawn_alike(earlier, spec):
             drawn[name] = {**earlier, "rule": rule}  # judged by today's rule
     return drawn
+
+
+def _drawn_alike(curve: dict | None, spec: dict) -> bool:
+    """Whether a recorded stage curve was drawn at the marks, episodes and seeds `spec` asks for."""
+    return bool(curve) and {key: curve.get(key) for key in spec} == spec
 
 
 def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
@@ -308,7 +313,7 @@ def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
     path = run_dir / STAGE_CURVE
     with contextlib.suppress(OSError, ValueError):
         drawn = json.loads(path.read_text())
-        if {k: drawn.get(k) for k in spec} == spec:
+        if _drawn_alike(drawn, spec):
             return drawn["points"]
     cfg = to_plain(load_run_config(run_dir))
     points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"])
