@@ -185,18 +185,28 @@ def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
     assert OTHERWISE_NOTE not in markdown(Table("t", "T", ["Task"], ["S.R."], [(["Cuboid"], [Cell([1.0])])]))
 
 
-def test_a_job_with_one_stale_evaluation_marks_only_that_evaluations_cells():
+def test_a_job_with_one_stale_evaluation_or_stage_marks_only_the_cells_made_of_it():
     from mapush.report.tables import _collect
 
     def job(name: str, reason: str) -> dict:
-        evals = {"main": {"success_rate": 0.8}, "go1": {"success_rate": 0.5}}
-        return {"job_dir": name, "method": "ours", "evals": evals, "made_otherwise": reason}
+        stages = {"mid": "stages/m1/mid/run", "high": "stages/h1/high/run"}
+        evals = {
+            "main": {"success_rate": 0.8, "checkpoint": "stages/h1/high/run/model_48.pt"},
+            "go1": {"success_rate": 0.5, "checkpoint": "stages/h1/high/run/model_48.pt"},
+            "mid": {"success_rate": 0.7, "checkpoint": "stages/m1/mid/run/model_999.pt"},
+        }
+        return {"job_dir": name, "method": "ours", "stages": stages, "evals": evals, "made_otherwise": reason}
 
-    legged = job("a", "evaluation 'go1' walked its robots with another locomotion policy than now")
-    assert _collect([legged], "success_rate", 100.0, eval="main").otherwise == 0
-    assert _collect([legged], "success_rate", 100.0, eval="go1").otherwise == 1
-    whole = job("b", "its stages changed (mid: 1 -> 2)")
-    assert _collect([whole], "success_rate", 100.0, eval="main").otherwise == 1
+    def marked(result: dict) -> set[str]:
+        return {name for name in result["evals"] if _collect([result], "success_rate", 100.0, eval=name).otherwise}
+
+    assert marked(job("a", "evaluation 'go1' walked its robots with another locomotion policy than now")) == {"go1"}
+    # the high level retrained on the same mid level: the mid level's own cells stand
+    assert marked(job("b", "its stages changed (high: h0 -> h1)")) == {"main", "go1"}
+    # a retrained mid level makes every cell of the job other, the high level trained on it included
+    assert marked(job("c", "its stages changed (mid: m0 -> m1, high: h0 -> h1)")) == {"main", "go1", "mid"}
+    assert marked(job("d", "its stages changed (mid: m0 -> m1)")) == {"main", "go1", "mid"}
+    assert marked(job("e", "its evaluations changed (main -> go1, main)")) == {"main", "go1", "mid"}
 
 
 def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli, tmp_path):

@@ -403,16 +403,36 @@ def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], roo
 
 
 def _about_evaluation(name: str, what: str) -> str:
-    """A `result_changes` reason that concerns one evaluation only; `changed_evaluation` reads its name back."""
+    """A `result_changes` reason that concerns one evaluation only; `concerns` reads its name back."""
     return f"evaluation {name!r} {what}"
 
 
-def changed_evaluation(reason: str) -> str | None:
-    """The one evaluation a `result_changes` reason names as changed (`_about_evaluation`), None when the
-    reason concerns the whole job (its stages, its set of evaluations, its curve): a table marks only that
-    evaluation's cells."""
-    match = re.match(r"evaluation '([^']+)' ", reason)
-    return match.group(1) if match else None
+def _about_stages(changed: dict[str, tuple[str | None, str | None]]) -> str:
+    """A `result_changes` reason that names the stages whose identity changed (name: made -> planned), in the
+    plan's order; `concerns` reads the names back."""
+    return "its stages changed (" + ", ".join(f"{name}: {was} -> {now}" for name, (was, now) in changed.items()) + ")"
+
+
+def _evaluated_stage(result: dict, name: str) -> str | None:
+    """The stage whose run evaluation `name` of `result` loaded its checkpoint from, None when none is named."""
+    checkpoint = Path(result.get("evals", {}).get(name, {}).get("checkpoint", ""))
+    return next((stage for stage, run in result.get("stages", {}).items() if Path(run) in checkpoint.parents), None)
+
+
+def concerns(reason: str, result: dict, name: str) -> bool:
+    """Whether a `result_changes` reason about `result` concerns its evaluation `name`, so that a table marks that
+    evaluation's cells: a changed evaluation concerns only itself; changed stages concern the evaluations of those
+    stages and of every stage after them in the plan (trained on them), not a mid level evaluated alone whose high
+    level alone changed; any other reason (the set of evaluations, the curve) the whole job."""
+    evaluation = re.match(r"evaluation '([^']+)' ", reason)
+    if evaluation:
+        return evaluation.group(1) == name
+    changed = re.match(r"its stages changed \((.*)\)$", reason)
+    order, evaluated = list(result.get("stages", {})), _evaluated_stage(result, name)
+    if not changed or evaluated is None:
+        return True
+    names = re.findall(r"(\w+): \S+ -> \S+", changed.group(1))
+    return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in names)
 
 
 def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> str:
@@ -421,12 +441,11 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], r
     `root` holds the stage records (`stage.yaml`) of the result's stages: the sweep root, or the archive.
     """
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
-    wanted = {stage.name: stage.identity for stage in planned}
-    if made.keys() != wanted.keys() or _same_stages(result, cfg, planned, root) != set(wanted):
-        return "its stages changed (" + ", ".join(
-            f"{name}: {made.get(name)} -> {wanted.get(name)}" for name in sorted({*made, *wanted})
-            if made.get(name) != wanted.get(name)
-        ) + ")"  # fmt: skip
+    same = _same_stages(result, cfg, planned, root)
+    names = [stage.name for stage in planned if stage.name not in same] + [name for name in made if name not in same]
+    if names:
+        wanted = {stage.name: stage.identity for stage in planned}
+        return _about_stages({name: (made.get(name), wanted.get(name)) for name in dict.fromkeys(names)})
     evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
     if sorted(result.get("evals", {})) != evals:
         return f"its evaluations changed ({', '.join(sorted(result.get('evals', {})))} -> {', '.join(evals)})"

@@ -16,7 +16,7 @@ import yaml
 
 from mapush.config import group_file
 from mapush.experiments.archive import load_results, made_otherwise
-from mapush.experiments.pipeline import changed_evaluation
+from mapush.experiments.pipeline import concerns
 from mapush.report import plots
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Cell, Table, csv_text, latex, markdown, sidecar
@@ -43,7 +43,7 @@ def _collect(results: list[dict], metric: str, scale: float, **match) -> Cell:
             cell.values.append(scale * r["evals"][eval_name][metric])
             cell.sources.append(r["job_dir"])
             reason = r.get("made_otherwise") or ""
-            cell.otherwise += bool(reason) and changed_evaluation(reason) in (None, eval_name)
+            cell.otherwise += bool(reason) and concerns(reason, r, eval_name)
     return cell
 
 
