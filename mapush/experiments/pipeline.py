@@ -441,11 +441,11 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], r
     `root` holds the stage records (`stage.yaml`) of the result's stages: the sweep root, or the archive.
     """
     made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    wanted = {stage.name: stage.identity for stage in planned}
     same = _same_stages(result, cfg, planned, root)
-    names = [stage.name for stage in planned if stage.name not in same] + [name for name in made if name not in same]
-    if names:
-        wanted = {stage.name: stage.identity for stage in planned}
-        return _about_stages({name: (made.get(name), wanted.get(name)) for name in dict.fromkeys(names)})
+    changed = [name for name in {**wanted, **made} if name not in same]  # the plan's order, then stages it lacks
+    if changed:
+        return _about_stages({name: (made.get(name), wanted.get(name)) for name in changed})
     evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
     if sorted(result.get("evals", {})) != evals:
         return f"its evaluations changed ({', '.join(sorted(result.get('evals', {})))} -> {', '.join(evals)})"
