@@ -250,3 +250,41 @@ def test_eval_video_of_a_trained_run_writes_the_asked_frames_next_to_eval_json(c
     frames = decoded(Path(video_path))
     assert len(frames) == 9
     assert moved(frames[0], frames[-1]) > 0
+
+
+HIGH_FRAME_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    from mapush.viz.preflight import require_offscreen_gl
+    require_offscreen_gl()
+    import numpy as np
+    from mapush.config import compose_config, to_plain
+    from mapush.envs.high import HighPushEnv
+    from mapush.rl.frozen import load_mid_policy
+    from mapush.viz.video import FrameRenderer
+    cfg = to_plain(compose_config(["debug=smoke", "level=high", "mid=" + sys.argv[1]]))
+    env = HighPushEnv(cfg, load_mid_policy(sys.argv[1], cfg["task"]), num_envs=1)
+    renderer = FrameRenderer(env, cfg)
+    np.save(sys.argv[2], renderer.render(env, 0))
+    renderer.close()
+    """
+)
+
+
+def test_a_high_level_frame_shows_the_object_it_tracks(smoke_run, tmp_path):
+    # the high level's scene parks unused obstacle blocks 1 km away; MuJoCo's clip planes scale with the extent that
+    # makes, and a near plane beyond the camera's distance once left every high-level frame without its object
+    out = tmp_path / "frame.npy"
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run(
+        [sys.executable, "-c", HIGH_FRAME_SCRIPT, str(smoke_run), str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
+    assert proc.returncode == 0, proc.stderr
+    frame = np.load(out).astype(int)
+    r, g, b = frame[..., 0], frame[..., 1], frame[..., 2]
+    orange = (r > g) & (g > b) & (r - b > 80)  # the object's colour (0.9, 0.55, 0.2) under any shading
+    assert orange.mean() > 0.005, f"{orange.mean():.4f} of the frame shows the object"

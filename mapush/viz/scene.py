@@ -22,6 +22,9 @@ PATH_WIDTH = 0.04  # m; radius of the capsules that draw the reference path
 ARROW_WIDTH = 0.03  # m; shaft radius of the velocity arrows
 IDENTITY = np.eye(3).flatten()
 HEADLIGHT = (0.35, 0.6)  # ambient, diffuse; MuJoCo's 0.1, 0.4 leave a scene with no lights of its own dark
+CLIP_M = (0.05, 200.0)  # m; near and far clipping planes. MuJoCo scales its own by the model's extent, which the
+# obstacle blocks parked 1 km off the arena (`PARKED`) stretch to ~1.4 km: a near plane 14 m out, past the camera's
+# 9 m, cut the object and the robots out of every high-level frame
 
 
 def rgba(name: str, index: int = 0) -> np.ndarray:
@@ -54,6 +57,7 @@ class EnvView:
         self.model.vis.global_.offwidth = max(int(self.model.vis.global_.offwidth), width)
         self.model.vis.global_.offheight = max(int(self.model.vis.global_.offheight), height)
         self.model.vis.headlight.ambient[:], self.model.vis.headlight.diffuse[:] = HEADLIGHT
+        self.model.vis.map.znear, self.model.vis.map.zfar = (m / self.model.stat.extent for m in CLIP_M)
         self._tint_robots(int(cfg["task"]["num_agents"]))
         self.data = mujoco.MjData(self.model)
         self.success_distance = float(cfg["level"].get("success_distance", 0.0))
