@@ -14,7 +14,7 @@ from conftest import MAPUSH, composed
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from mapush.envs.mid import MidPushEnv
-from mapush.logging.episode_stats import TOUCH_M, Track, _scene_geometry, episode_stats, read_tracks
+from mapush.logging.episode_stats import JAM_M, TOUCH_M, Track, _scene_geometry, episode_stats, read_tracks
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.scene import SceneLayout, scene_update
 from mapush.planning.geometry import corners
@@ -25,12 +25,14 @@ class ObjectProbe:
 
     def __init__(self):
         self.xy: list[np.ndarray] = []
+        self.robot_xy: list[np.ndarray] = []
 
     def capture(self, env, commands, reward, parts, done) -> None:
         self.xy.append(env.state.object_xy[0].numpy().copy())
+        self.robot_xy.append(env.state.robot_xy[0].numpy().copy())
 
 
-def track(xy, path=None, obstacles=(), hull=None, yaw=None, dt=0.02, outcome="timeout") -> Track:
+def track(xy, path=None, obstacles=(), hull=None, yaw=None, dt=0.02, outcome="timeout", robots=None) -> Track:
     xy = np.asarray(xy, dtype=float)
     square = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
     return Track(
@@ -38,6 +40,7 @@ def track(xy, path=None, obstacles=(), hull=None, yaw=None, dt=0.02, outcome="ti
         dt=dt,
         object_xy=xy,
         object_yaw=np.zeros(len(xy)) if yaw is None else np.asarray(yaw, dtype=float),
+        robot_xy=np.zeros((len(xy), 0, 2)) if robots is None else np.asarray(robots, dtype=float),
         hull=square if hull is None else hull,
         path=None if path is None else np.asarray(path, dtype=float),
         goal_xy=np.array([10.0, 0.0]),
@@ -60,6 +63,21 @@ def test_a_straight_push_beside_the_path():
     assert row["speed"] == pytest.approx(0.4 / 150 / 0.02)
     assert row["goal_m"] == pytest.approx(math.hypot(10.0 - 0.4, 0.3))
     assert row["touching"] == 0.0 and math.isnan(episode_stats(track(moving))["path_m"])
+    assert row["jammed"] == 0.0  # no robots recorded
+
+
+def test_jammed_counts_the_still_steps_with_two_robots_body_to_body():
+    """Three robots; the object moves for 100 steps, then stands for 50. Robots 0 and 1 come within 0.5 m of each
+    other after step 80 and stay; robot 2 keeps 3 m away. Jammed: the still steps with a close pair, 50 of 150."""
+    moving = np.stack([np.arange(101) * 0.004, np.zeros(101)], 1)
+    xy = np.concatenate([moving, np.repeat(moving[-1:], 50, axis=0)])  # 151 poses, 150 steps
+    gap = np.where(np.arange(151) > 80, 0.5, 2.0)
+    robots = np.stack([np.stack([-gap / 2, np.full(151, -1.0)], 1), np.stack([gap / 2, np.full(151, -1.0)], 1)], 1)
+    robots = np.concatenate([robots, np.tile([[3.0, 3.0]], (151, 1, 1))], 1)  # (151, 3, 2)
+    assert episode_stats(track(xy, robots=robots))["jammed"] == pytest.approx(50 / 150)
+    apart = robots.copy()
+    apart[:, 1, 0] = apart[:, 0, 0] + JAM_M + 0.01  # the same stall with the pair just beyond JAM_M
+    assert episode_stats(track(xy, robots=apart))["jammed"] == 0.0
 
 
 def test_a_wandering_push_travels_further_than_it_gets():
@@ -140,6 +158,7 @@ def test_a_recorded_episode_reads_back(tmp_path):
     steps = len(got.object_xy)
     assert steps == 20 and got.dt == pytest.approx(env.dt)
     np.testing.assert_allclose(got.object_xy, np.array(probe.xy[:steps]), atol=1e-5)
+    np.testing.assert_allclose(got.robot_xy, np.array(probe.robot_xy[:steps]), atol=1e-5)  # (20, 3, 2)
     assert got.end["outcome"] in {"success", "exception", "timeout"}
     out = subprocess.run([*MAPUSH, "logs", "episodes", str(path)], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr

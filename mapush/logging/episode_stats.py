@@ -1,10 +1,11 @@
 """How the object moved in each recorded episode: read back from an episodes.mcap, summed up per episode.
 
 `mapush logs episodes FILE` prints these rows. They answer what a success rate cannot: did a timeout wander
-(travel far beyond the start-to-end distance), stall (the object still most of the time), or jam against an
-obstacle (the object's footprint touching a block), and how far the object strayed from the reference path.
+(travel far beyond the start-to-end distance), stall (the object still most of the time), jam against an
+obstacle (the object's footprint touching a block) or stall with two robots jammed against each other, and how
+far the object strayed from the reference path.
 
-Everything is read from the file alone: the object's pose from `/tf`, the object's footprint, the
+Everything is read from the file alone: the object's and the robots' poses from `/tf`, the object's footprint, the
 reference path, the target and the obstacle blocks from each episode's first `/scene`, the outcome from
 `/episode` (topics: `mapush.logging.episodes`).
 """
@@ -23,7 +24,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from mapush.errors import BadInput
 from mapush.logging.mcap_files import stream_records
-from mapush.logging.scene import OBJECT
+from mapush.logging.scene import OBJECT, robot_frame
 from mapush.planning import paths
 from mapush.planning.geometry import corners, polygon_gap, transform
 from mapush.sim.shapes import object_hull
@@ -32,6 +33,8 @@ STALL_SPEED = 0.05
 """m/s; the object counts as stalled below this speed."""
 TOUCH_M = 0.02
 """m; the object's footprint counts as touching a block within this gap (as the `object_hit_obstacle` check)."""
+JAM_M = 0.8
+"""m; two robots whose centres are closer than this (a Go1 is 0.65 m long, 0.28 m wide) are body to body."""
 
 
 @dataclass
@@ -42,6 +45,7 @@ class Track:
     dt: float  # s between steps
     object_xy: np.ndarray  # (T, 2)
     object_yaw: np.ndarray  # (T,)
+    robot_xy: np.ndarray  # (T, N, 2)
     hull: np.ndarray  # (H, 2) the object's footprint, convex, in its own frame
     path: np.ndarray | None  # (P, 2) the reference path (high level), else None
     goal_xy: np.ndarray  # (2,) the final target (high level) or the first subgoal (mid level)
@@ -89,14 +93,17 @@ def read_tracks(file: Path) -> list[Track]:
     topics = {cid: channel.topic for cid, channel in contents.channels.items()}
     tracks: list[Track] = []
     poses: list[tuple[float, float, float]] = []  # the object's x, y, yaw at each step
+    robots: list[list[tuple[float, float]]] = []  # every robot's x, y at each step
     times: list[int] = []
     scene: dict | None = None
     for message in contents.messages:
         topic = topics.get(message.channel_id)
         if topic == "/tf":
-            frames = FrameTransforms.FromString(message.data).transforms
-            obj = next(t for t in frames if t.child_frame_id == OBJECT)
+            frames = {t.child_frame_id: t for t in FrameTransforms.FromString(message.data).transforms}
+            obj = frames[OBJECT]
             poses.append((obj.translation.x, obj.translation.y, _yaw(obj.rotation)))
+            bases = [frames[robot_frame(i)] for i in range(len(frames)) if robot_frame(i) in frames]
+            robots.append([(t.translation.x, t.translation.y) for t in bases])
             times.append(message.log_time)
         elif topic == "/scene" and scene is None:
             try:
@@ -115,10 +122,11 @@ def read_tracks(file: Path) -> list[Track]:
                     dt=dt,
                     object_xy=pose[:, :2],
                     object_yaw=pose[:, 2],
+                    robot_xy=np.array(robots, dtype=float).reshape(len(robots), -1, 2),
                     **scene,
                 )
             )
-            poses, times, scene = [], [], None
+            poses, robots, times, scene = [], [], [], None
     return tracks
 
 
@@ -131,6 +139,7 @@ def episode_stats(track: Track) -> dict:
       by at most half their spacing);
     - `speed`: the object's mean speed; `stalled`: the fraction of steps it moved slower than `STALL_SPEED`;
     - `touching`: the fraction of steps its footprint was within `TOUCH_M` of an obstacle block;
+    - `jammed`: the fraction of steps the object stalled while two robots stood within `JAM_M` of each other;
     - `goal_m`: the object centre's distance from the goal at the end.
     """
     xy = torch.as_tensor(track.object_xy, dtype=torch.float64)
@@ -148,7 +157,14 @@ def episode_stats(track: Track) -> dict:
         "off_path_m": math.nan,
         "off_path_max_m": math.nan,
         "touching": 0.0,
+        "jammed": 0.0,
     }
+    robots = torch.as_tensor(track.robot_xy, dtype=torch.float64)  # (T, N, 2)
+    if robots.shape[1] > 1 and len(speed):
+        same = torch.eye(robots.shape[1], dtype=torch.bool)
+        apart = torch.cdist(robots[1:], robots[1:]).masked_fill(same, math.inf)  # where each step left them
+        close = apart.flatten(1).amin(-1) < JAM_M
+        row["jammed"] = float(((speed < STALL_SPEED) & close).double().mean())
     if track.path is not None and len(track.path) > 1:
         path = torch.as_tensor(track.path, dtype=torch.float64)
         off = paths.distance_to_path(path.expand(len(xy), *path.shape), xy)
@@ -174,6 +190,7 @@ COLUMNS = {  # column: (heading, format)
     "speed": ("speed m/s", "{:.2f}"),
     "stalled": ("stalled", "{:.0%}"),
     "touching": ("touching", "{:.0%}"),
+    "jammed": ("jammed", "{:.0%}"),
     "goal_m": ("to goal m", "{:.1f}"),
 }
 
