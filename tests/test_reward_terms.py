@@ -87,3 +87,12 @@ def test_object_moving_is_one_above_the_speed_threshold():
 def test_object_moving_ignores_the_yaw_rate():
     env = stand_in(object_vel=torch.tensor([[0.0, 0.0, 5.0]]))
     assert terms.object_moving(env, min_speed=0.1).tolist() == [[0.0, 0.0]]
+
+
+def test_robot_jam_marks_the_robots_body_to_body_while_the_object_stands():
+    # robots 0 and 1 are 0.5 m apart, robot 2 is 3 m from both; env 0's object creeps at 0.01 m/s, env 1's at 0.3
+    xy = torch.tensor([[[0.0, 0.0], [0.5, 0.0], [3.0, 0.0]]]).expand(2, 3, 2)
+    env = stand_in(robot_xy=xy, object_vel=torch.tensor([[0.01, 0.0, 0.0], [0.3, 0.0, 0.0]]))
+    assert terms.robot_jam(env, distance_m=0.8, max_speed=0.05).tolist() == [[1.0, 1.0, 0.0], [0.0, 0.0, 0.0]]
+    assert terms.robot_jam(env, distance_m=0.4, max_speed=0.05).tolist() == [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    assert terms.robot_jam(env, distance_m=0.8, max_speed=0.5).tolist() == [[1.0, 1.0, 0.0], [1.0, 1.0, 0.0]]

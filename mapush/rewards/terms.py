@@ -41,6 +41,14 @@ def agent_proximity(env) -> torch.Tensor:
     return near.sum(-1) - 1.0 / 0.02  # drop j = i, where d_ii = 0
 
 
+def robot_jam(env, distance_m: float, max_speed: float) -> torch.Tensor:
+    """1 for each robot with a teammate's centre within `distance_m` while the object moves slower than `max_speed`
+    m/s: teammates body to body and the push stalled (what `mapush logs episodes` counts as jammed)."""
+    apart = env.state.robot_distance + torch.eye(env.num_agents) * 1e9  # (E, A, A), no robot near itself
+    still = torch.linalg.vector_norm(env.state.object_vel[:, :2], dim=-1) < max_speed
+    return ((apart < distance_m).any(-1) & still.unsqueeze(1)).float()
+
+
 def object_approach(env) -> torch.Tensor:
     """-(d_i + 0.5)^2, d_i the distance from robot i to the object centre in m."""
     d = torch.linalg.vector_norm(env.state.robot_xy - env.state.object_xy.unsqueeze(1), dim=-1)
