@@ -210,12 +210,15 @@ RENDER_SCRIPT = textwrap.dedent(
 )
 
 
+def run_child(script: str, *args: str) -> subprocess.CompletedProcess:
+    """`script` in a fresh Python (so it picks its own OpenGL backend) on one thread, with `args` as its argv."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    return subprocess.run([sys.executable, "-c", script, *args], env=env, capture_output=True, text=True, timeout=240)
+
+
 def test_a_recorded_episode_of_three_robots_renders_headless_to_the_asked_frames(tmp_path):
     out = tmp_path / "three_robots.mp4"
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run(
-        [sys.executable, "-c", RENDER_SCRIPT, str(out)], env=env, capture_output=True, text=True, timeout=240
-    )
+    proc = run_child(RENDER_SCRIPT, str(out))
     assert proc.returncode == 0, proc.stderr
     frames = decoded(out)
     assert len(frames) == 20
@@ -275,14 +278,7 @@ def test_a_high_level_frame_shows_the_object_it_tracks(smoke_run, tmp_path):
     # the high level's scene parks unused obstacle blocks 1 km away; MuJoCo's clip planes scale with the extent that
     # makes, and a near plane beyond the camera's distance once left every high-level frame without its object
     out = tmp_path / "frame.npy"
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run(
-        [sys.executable, "-c", HIGH_FRAME_SCRIPT, str(smoke_run), str(out)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=240,
-    )
+    proc = run_child(HIGH_FRAME_SCRIPT, str(smoke_run), str(out))
     assert proc.returncode == 0, proc.stderr
     frame = np.load(out).astype(int)
     r, g, b = frame[..., 0], frame[..., 1], frame[..., 2]
