@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 from pathlib import Path
 
 import pytest
 from omegaconf import OmegaConf, open_dict
 
-from mapush.config import compose_config
+from mapush.config import compose_config, load_run_config
 from mapush.errors import BadInput
-from mapush.experiments import pipeline
+from mapush.experiments import pipeline, stages
 from mapush.experiments.archive import made_otherwise
 from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
 from mapush.experiments.stages import compose_stage, identity_of
@@ -19,6 +20,9 @@ from mapush.experiments.sweep import sweep_overrides
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
+SPEC = importlib.util.spec_from_file_location("adopt_runs", Path(__file__).parents[1] / "tools" / "adopt_runs.py")
+adopt_runs = importlib.util.module_from_spec(SPEC)
+SPEC.loader.exec_module(adopt_runs)
 
 
 def _identities(*overrides: str) -> dict[str, str]:
@@ -105,12 +109,25 @@ def test_the_identities_of_stages_already_trained_stay_as_they_were():
     assert _identities("task=cylinder", "overrides=['train.init_from=runs/x']")["mid"] != "0676bfba46653ac6"
     # robot dynamics drawn in training: the stages the main table's sweep trained with them (2026-11-26, 15:15-16:30)
     ranges = "lowlevel.randomize={lag:[0.1,0.45],yaw_lag:[0.02,0.4],max_force:[20.0,45.0]}"
-    assert _identities("task=cuboid", f"overrides=['{ranges}']", curved) == {
+    no_jam = "method.stages.mid=['level=mid','~reward.terms.robot_jam']"  # a term the mid reward gained after them
+    assert _identities("task=cuboid", f"overrides=['{ranges}']", curved, no_jam) == {
         "mid": "c2bc999e7f09d7ec",
         "high": "fb88ed241aef2240",
     }
     other = _identities("task=cuboid", "overrides=['lowlevel.randomize={lag:[0.1,0.4]}']")  # another range
     assert other["mid"] not in ("c2bc999e7f09d7ec", _identities("task=cuboid")["mid"])
+
+
+def test_a_reward_term_at_weight_0_is_no_term_so_a_task_may_switch_a_new_one_off():
+    # robot_jam joined the mid reward after the main table's stages were trained; the cylinder switches it off
+    # (task.reward_weights.robot_jam: 0), so its stages keep their identities (Ours' seed-0 mid level, above),
+    # while on the cuboid it is a new stage. At weight 0 or deleted, the cuboid's mid level is the one the main
+    # table's Ours seed-0 job trained (runs/sweeps/stages/b079be5106f2a8c7, 2026-11-27)
+    assert _identities("task=cylinder")["mid"] == "0676bfba46653ac6"
+    off = _identities("task=cuboid", "method.stages.mid=['level=mid','reward.terms.robot_jam.weight=0.0']")
+    deleted = _identities("task=cuboid", "method.stages.mid=['level=mid','~reward.terms.robot_jam']")
+    assert off == deleted and off["mid"] == "b079be5106f2a8c7"
+    assert _identities("task=cuboid")["mid"] != off["mid"]
 
 
 def test_a_sweep_stage_writes_a_checkpoint_by_every_mark_of_its_learning_curve():
@@ -170,6 +187,40 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     assert again.returncode == 0, again.stdout + again.stderr
     assert json.loads(main_result.read_text())["stage_curves"]["mid"] == mid_curve
     assert drawn.stat().st_mtime_ns == drawn_at
+
+
+@pytest.mark.slow
+def test_runs_trained_by_hand_as_a_sweeps_stages_are_adopted_and_reused(cli, tmp_path):
+    # a probe trained with `mapush train` and the recipe's config is that stage: tools/adopt_runs.py puts it in the
+    # store, and the sweep trains nothing. The high run named its mid run by path: its copy names the adopted one
+    root = tmp_path / "sweeps"
+    job = ["experiment=main", "method=sa", "task=cylinder"]
+    mid, high = planned_stages(_job_cfg(root))
+    made = {}
+    for stage in (mid, high):
+        overrides = [o.replace("@mid", str(made.get("mid", ""))) for o in stage.overrides]
+        done = cli(
+            "train", *overrides, f"train.iterations={stage.iterations}", f"train.run_dir={tmp_path / stage.name}"
+        )
+        assert done.returncode == 0, done.stderr
+        made[stage.name] = tmp_path / stage.name
+    unrelated = cli("train", "debug=smoke", "task=cuboid", f"train.run_dir={tmp_path / 'other'}")
+    assert unrelated.returncode == 0, unrelated.stderr
+
+    adopted = adopt_runs.adopt([made["high"], tmp_path / "other", made["mid"]], [*job, *SMOKE, f"sweep_root={root}"])
+    assert set(adopted) == {made["mid"], made["high"]}  # the cuboid run is no stage of this sweep
+    assert adopted[made["mid"]].parents[2] == stages.stage_dir(root, mid.identity)
+    assert load_run_config(adopted[made["high"]]).mid == str(adopted[made["mid"]])
+    plan = _sweep(cli, root, "sweep", "--dry-run", *job)
+    assert plan.returncode == 0, plan.stderr
+    assert "0 to train" in plan.stdout and plan.stdout.count("  reuse  ") == 2
+    done = _sweep(cli, root, "sweep", *job)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (result,) = [json.loads(p.read_text()) for p in root.glob(f"*/*/{RESULT}")]
+    assert {name: Path(path).resolve() for name, path in result["stages"].items()} == {
+        "mid": adopted[made["mid"]],
+        "high": adopted[made["high"]],
+    }
 
 
 def _job_cfg(root: Path, *overrides: str):

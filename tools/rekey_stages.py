@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -48,11 +47,6 @@ def at_checkout(checkout: Path, args: list[str]) -> str:
     if done.returncode:
         sys.exit(f"{checkout}: {' '.join(args)} failed:\n{done.stderr[-2000:]}")
     return done.stdout
-
-
-def _link_weights(source: str, target: str) -> None:
-    """Hard-link weights (written once), copy everything else (logs grow when a run resumes)."""
-    (os.link if source.endswith((".pt", ".onnx")) else shutil.copy2)(source, target)
 
 
 def commit_of(checkout: Path) -> str:
@@ -88,7 +82,7 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
             continue
         target = stages.stage_dir(root, row["identity"])
         for run_dir in find_runs(source):
-            shutil.copytree(run_dir, target / run_dir.relative_to(source), copy_function=_link_weights)
+            stages.copy_run(run_dir, target / run_dir.relative_to(source))
         cfg = stages.compose_stage(stage.overrides, lambda c, n=stage.iterations: n)
         record = {
             "identity": row["identity"],

@@ -4,7 +4,8 @@ shares one store of finished stages.
 The identity of a stage is a hash of its composed, resolved config (budget included, as `train.iterations`),
 less what says where it is written, how it is logged or evaluated, how many threads ran it, and how often it
 writes checkpoints and how many it keeps (`IGNORED`; sweeps keep them all, for the learning curves), and less the
-keys added since at their neutral default (`UNSET_LATER_KEYS`); a frozen
+keys added since at their neutral default (`UNSET_LATER_KEYS`) and less the reward terms at weight 0 (the reward
+manager drops them, so a task that switches a term off keeps the stages trained before it existed); a frozen
 stage it builds on (`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or of
 two experiments, whose stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to the
 config (a reward weight, the tracker's calibration, the budget) is another identity, so another run.
@@ -16,6 +17,8 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import os
+import shutil
 import statistics
 from pathlib import Path
 
@@ -44,7 +47,12 @@ IGNORED = (
     "bench",
 )
 """Config keys that change where and how a stage runs, not what it learns."""
-UNSET_LATER_KEYS = {"train.init_from": None, "lowlevel.randomize": None, "sim.robot_contacts": True}
+UNSET_LATER_KEYS = {
+    "train.init_from": None,
+    "lowlevel.randomize": None,
+    "sim.robot_contacts": True,
+    "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (the cylinder)
+}
 """Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
 stays out of the identity, so the stages trained before it existed keep theirs; set, it makes another stage."""
 STAGE_REF = "@"
@@ -67,8 +75,12 @@ def compose_stage(overrides: list[str], iterations_of) -> dict:
 
 
 def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str:
-    """The stage's identity: a hash of `cfg` less `IGNORED`, with `key=@stage` set to that stage's identity."""
+    """The stage's identity: a hash of `cfg` less `IGNORED`, `UNSET_LATER_KEYS` at their default and reward terms
+    at weight 0, with `key=@stage` set to that stage's identity."""
     view = OmegaConf.create(cfg)
+    terms = OmegaConf.select(view, "reward.terms") or {}
+    for name in [name for name, term in terms.items() if term is not None and term.get("weight") == 0]:
+        terms.pop(name)
     dropped = [(key, None) for key in IGNORED] + [(key, (default,)) for key, default in UNSET_LATER_KEYS.items()]
     for key, only_at in dropped:  # only_at: None drops the key whatever its value, else only at that one value
         parent, _, leaf = key.rpartition(".")
@@ -175,6 +187,16 @@ def write_identity(directory: Path, cfg: dict, key: str) -> None:
     """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run."""
     Path(directory).mkdir(parents=True, exist_ok=True)
     OmegaConf.save(OmegaConf.create({"identity": key, "config": cfg}), Path(directory) / IDENTITY_FILE)
+
+
+def copy_run(run_dir: Path, target: Path) -> None:
+    """Copy run `run_dir` to `target` in a store: weights hard-linked (written once), everything else copied (a
+    resumed run appends to its logs)."""
+
+    def link_weights(source: str, destination: str) -> None:
+        (os.link if source.endswith((".pt", ".onnx")) else shutil.copy2)(source, destination)
+
+    shutil.copytree(run_dir, target, copy_function=link_weights)
 
 
 @contextlib.contextmanager
