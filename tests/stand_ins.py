@@ -12,7 +12,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config
 from mapush.envs.low import LocomotionState
-from mapush.logging.metrics import McapLogWriter
+from mapush.logging.metrics import CPU_TAG, McapLogWriter
 from mapush.sim.push import PushState
 
 STATE_FIELDS = {f.name for f in dataclasses.fields(PushState)} | {f.name for f in dataclasses.fields(LocomotionState)}
@@ -25,19 +25,22 @@ def stand_in_env(**attrs) -> SimpleNamespace:
 
 
 def stage_run(
-    root: Path, name: str, threads: int, parts: list[dict[int, tuple[float, float]]], recorded: list[int] | None = None
+    root: Path, name: str, threads: int, parts: list[dict[int, tuple[float, ...]]], recorded: list[int] | None = None
 ) -> Path:
-    """A run dir with one metrics file per part: {iteration: (collection s, learning s)}; `recorded`: the threads
-    each part's iterations record (`Perf/threads`; 0, as files written before that record, or None: none)."""
+    """A run dir with one metrics file per part: {iteration: (collection s, learning s[, CPU s])}; `recorded`: the
+    threads each part's iterations record (`Perf/threads`; 0, as files written before that record, or None: none).
+    An iteration records CPU seconds (`Perf/cpu_s`) only where given."""
     run = root / name
     run.mkdir(parents=True)
     OmegaConf.save(compose_config([f"sim.nthread={threads}"]), run / "config.yaml")
     for part, part_threads in zip(parts, recorded or [0] * len(parts), strict=True):
         # a second writer opens metrics.1.mcap, as a resume does
-        writer = McapLogWriter(str(run), progress=False, threads=part_threads)
-        for it, (collection, learning) in part.items():
+        writer = McapLogWriter(str(run), progress=False, threads=part_threads, record_cpu=False)
+        for it, (collection, learning, *cpu) in part.items():
             writer.add_scalar("Perf/collection_time", collection, it)
             writer.add_scalar("Perf/learning_time", learning, it)
+            for seconds in cpu:
+                writer.add_scalar(CPU_TAG, seconds, it)
             writer.add_scalar("Metrics/success_rate", 0.5, it)
             writer.end_iteration(it)
         writer.stop()

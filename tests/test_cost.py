@@ -10,6 +10,8 @@ import pytest
 from stand_ins import stage_run
 
 from mapush.experiments.stages import stage_core_seconds
+from mapush.logging.mcap_files import training_scalars
+from mapush.logging.metrics import CPU_TAG
 from mapush.report.cost import cost_after, cost_by, cost_line, measured_cost
 from mapush.report.formats import Table, markdown, sidecar
 
@@ -47,6 +49,22 @@ def test_a_run_resumed_with_other_threads_counts_each_iteration_at_its_own(tmp_p
     assert stage_core_seconds(stage_run(tmp_path, "moved", 2, parts, recorded=[0, 1])) == pytest.approx(12.0)
     # without the record every iteration counts at the config's threads
     assert stage_core_seconds(stage_run(tmp_path, "unrecorded", 2, parts)) == pytest.approx(18.0)
+
+
+def test_an_iteration_that_recorded_its_cpu_time_counts_that_not_its_wall_time(tmp_path):
+    # two jobs on one core each and a third process beside them: 3 s of wall, 2 s of CPU, on 1 thread; the second
+    # part (resumed after the record existed) is counted in CPU seconds, the first (before it) in wall time
+    parts = [{0: (1.0, 2.0), 1: (1.0, 2.0)}, {2: (1.0, 2.0, 2.0), 3: (1.0, 2.0, 2.0)}]
+    assert stage_core_seconds(stage_run(tmp_path, "crowded", 1, parts, recorded=[1, 1])) == pytest.approx(10.0)
+    # CPU seconds hold however long the process stood still: no median stands in for them
+    paused = {it: (1.0, 2.0, 3.0) for it in range(30)}
+    paused[12] = (1.0, 1562.0, 3.0)
+    assert stage_core_seconds(stage_run(tmp_path, "paused", 1, [paused])) == pytest.approx(90.0)
+
+
+def test_a_training_records_each_iterations_cpu_seconds(smoke_run):
+    cpu = training_scalars(smoke_run, prefix="Perf/")[CPU_TAG]
+    assert sorted(cpu) == [0, 1] and all(0.0 < seconds < 600.0 for seconds in cpu.values())
 
 
 def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):

@@ -26,7 +26,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config, load_run_config, sim_threads, to_plain
 from mapush.logging.mcap_files import training_scalars
-from mapush.logging.metrics import THREADS_TAG
+from mapush.logging.metrics import CPU_TAG, THREADS_TAG
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import checkpoint_iteration, checkpoints, find_runs
 
@@ -216,20 +216,21 @@ def _is_ref(override: str) -> bool:
 
 
 def stage_core_seconds(run_dir: Path) -> float:
-    """Core-seconds of one stage's training: its iterations' wall time (`metrics.mcap`, each iteration once, as
-    rsl-rl measures it) times its MuJoCo threads: those the iteration recorded (`Perf/threads`; a run resumed on
-    another machine changes them), else its config's. An iteration longer than `PAUSED_FACTOR` times the stage's
-    median stood still (its process stopped, e.g. `kill -STOP` while something else ran) and counts as a median
-    one."""
+    """Core-seconds of one stage's training (`metrics.mcap`, each iteration once): the CPU seconds an iteration
+    recorded (`Perf/cpu_s`, since 2026-11-27), else its wall time as rsl-rl measures it times its MuJoCo threads,
+    those the iteration recorded (`Perf/threads`; a run resumed on another machine changes them) or its config's.
+    Wall time counts a crowded machine's waits as work; CPU time does not. Of wall times, one longer than
+    `PAUSED_FACTOR` times the stage's median stood still (its process stopped, e.g. `kill -STOP` while something
+    else ran) and counts as a median one."""
     scalars = training_scalars(run_dir, prefix="Perf/")
     per_iteration: dict[int, float] = {}
     for tag in ITERATION_TIMES:
         for iteration, value in scalars.get(tag, {}).items():
             per_iteration[iteration] = per_iteration.get(iteration, 0.0) + value
     typical = statistics.median(per_iteration.values()) if per_iteration else 0.0
-    recorded, configured = scalars.get(THREADS_TAG, {}), run_threads(run_dir)
+    recorded, configured, cpu = scalars.get(THREADS_TAG, {}), run_threads(run_dir), scalars.get(CPU_TAG, {})
     return sum(
-        (t if t <= PAUSED_FACTOR * typical else typical) * recorded.get(it, configured)
+        cpu[it] if it in cpu else (t if t <= PAUSED_FACTOR * typical else typical) * recorded.get(it, configured)
         for it, t in per_iteration.items()
     )
 

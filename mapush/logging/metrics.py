@@ -8,7 +8,8 @@ Each scalar tag becomes the topic `/metrics/<tag>` with JSON messages {"iteratio
   (the last 500 episodes), `Train/mean_episode_length` (steps), `Train/mean_reward`;
 - `Loss/<name>` (rsl-rl's PPO losses), `Loss/learning_rate`, `Policy/mean_std` (action std);
 - `Perf/env_steps_per_s` (env-steps, all robots of an env together), `Perf/total_fps` (rsl-rl's agent rows/s),
-  `Perf/collection_time`, `Perf/learning_time`, `Perf/threads` (the iteration's MuJoCo threads).
+  `Perf/collection_time`, `Perf/learning_time`, `Perf/threads` (the iteration's MuJoCo threads), `Perf/cpu_s`
+  (the CPU seconds the process spent on the iteration, all its threads together).
 
 The run's `config.yaml` and `meta.json` (git commit, command) are attached, and `meta.json`'s fields stored as the
 metadata record `run`, as soon as the file opens; the rsl-rl config dicts follow. The file is flushed at the end
@@ -28,6 +29,8 @@ from rsl_rl.utils.logger import Logger
 
 THREADS_TAG = "Perf/threads"
 """Each iteration's MuJoCo threads, beside its times: what its wall time is multiplied by to count core-seconds."""
+CPU_TAG = "Perf/cpu_s"
+"""Each iteration's CPU seconds (the process's, every thread): its core-seconds, however crowded the machine was."""
 SCALAR_SCHEMA = {
     "type": "object",
     "title": "mapush.Scalar",
@@ -54,6 +57,8 @@ class McapLogWriter(LogWriter):
         total_iterations: the run's final iteration count, for the time-left estimate.
         rows_per_env: policy rows per env, to turn rsl-rl's row-steps/s into env-steps/s.
         progress: print the progress line to stderr.
+        threads: MuJoCo threads of this process's iterations, recorded beside their times (0: none recorded).
+        record_cpu: record each iteration's CPU seconds (False: as files written before that record).
     """
 
     def __init__(
@@ -64,6 +69,7 @@ class McapLogWriter(LogWriter):
         rows_per_env: int = 1,
         progress: bool = True,
         threads: int = 0,
+        record_cpu: bool = True,
     ):
         self.path = next_free_path(os.path.join(log_dir, filename))
         self._file = open(self.path, "wb")
@@ -75,6 +81,7 @@ class McapLogWriter(LogWriter):
         self.total_iterations, self.rows_per_env, self.progress = total_iterations, rows_per_env, progress
         self.threads = threads  # MuJoCo threads of this process's iterations (a resumed run may differ)
         self._started = time.time()
+        self._cpu_mark = time.process_time() if record_cpu else None
         self._first_iteration: int | None = None
         self._attach_run_files(log_dir)
 
@@ -110,6 +117,9 @@ class McapLogWriter(LogWriter):
         self._latest[tag] = value
         if tag == "Perf/total_fps":
             self.add_scalar("Perf/env_steps_per_s", value / self.rows_per_env, global_step)
+        if tag == "Perf/collection_time" and self._cpu_mark is not None:  # once an iteration: CPU since the last
+            cpu, self._cpu_mark = time.process_time() - self._cpu_mark, time.process_time()
+            self.add_scalar(CPU_TAG, cpu, global_step)
         if tag == "Perf/collection_time" and self.threads:
             self.add_scalar(THREADS_TAG, self.threads, global_step)
 
