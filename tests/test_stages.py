@@ -119,11 +119,15 @@ def test_the_identities_of_stages_already_trained_stay_as_they_were():
 
 
 def test_a_reward_term_at_weight_0_is_no_term_so_a_task_may_switch_a_new_one_off():
-    # robot_jam joined the mid reward after the main table's stages were trained; the cylinder switches it off
-    # (task.reward_weights.robot_jam: 0), so its stages keep their identities (Ours' seed-0 mid level, above),
-    # while on the cuboid it is a new stage. At weight 0 or deleted, the cuboid's mid level is the one the main
-    # table's Ours seed-0 job trained (runs/sweeps/stages/b079be5106f2a8c7, 2026-11-27)
+    # robot_jam joined the mid reward after the main table's stages were trained; the T-block, the cylinder and the
+    # OCB cuboid weigh it 0 (task.reward_weights.robot_jam), so their stages keep their identities (the Ours seed-0
+    # mid levels of the main table and the ablation, runs/sweeps/stages/<identity>, 2026-11-26/27), while on the
+    # cuboid it is a new stage. At weight 0 or deleted, the cuboid's mid level is the one the table's Ours seed-0
+    # job trained before the term existed
     assert _identities("task=cylinder")["mid"] == "0676bfba46653ac6"
+    assert _identities("task=tblock")["mid"] == "77f81d1e11fb3bee"
+    ablation = compose_config(["experiment=ocb_ablation", "method=ours", "task=ocb_cuboid"], config_name="sweep")
+    assert planned_stages(ablation)[0].identity == "5b9efc0908377c6b"
     off = _identities("task=cuboid", "method.stages.mid=['level=mid','reward.terms.robot_jam.weight=0.0']")
     deleted = _identities("task=cuboid", "method.stages.mid=['level=mid','~reward.terms.robot_jam']")
     assert off == deleted and off["mid"] == "b079be5106f2a8c7"

@@ -5,7 +5,7 @@ The identity of a stage is a hash of its composed, resolved config (budget inclu
 less what says where it is written, how it is logged or evaluated, how many threads ran it, and how often it
 writes checkpoints and how many it keeps (`IGNORED`; sweeps keep them all, for the learning curves), and less the
 keys added since at their neutral default (`UNSET_LATER_KEYS`) and less the reward terms at weight 0 (the reward
-manager drops them, so a task that switches a term off keeps the stages trained before it existed); a frozen
+manager drops them, so a task that switches a new term off keeps the stages trained before it); a frozen
 stage it builds on (`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or of
 two experiments, whose stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to the
 config (a reward weight, the tracker's calibration, the budget) is another identity, so another run.
@@ -51,10 +51,11 @@ UNSET_LATER_KEYS = {
     "train.init_from": None,
     "lowlevel.randomize": None,
     "sim.robot_contacts": True,
-    "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (the cylinder)
+    "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (T-block, cylinder, OCB cuboid)
 }
 """Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
-stays out of the identity, so the stages trained before it existed keep theirs; set, it makes another stage."""
+stays out of the identity (and so does a parent it leaves empty), so the stages trained before it existed keep
+theirs; set, it makes another stage."""
 STAGE_REF = "@"
 """An override value `@STAGE` (e.g. `mid=@mid`) stands for that earlier stage's run dir."""
 IDENTITY_FILE = "stage.yaml"
@@ -87,6 +88,9 @@ def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str
         node = OmegaConf.select(view, parent) if parent else view
         if node is not None and leaf in node and (only_at is None or node[leaf] == only_at[0]):
             node.pop(leaf)
+            if only_at is not None and not node and parent:  # a dict that held only the later key
+                grand, _, name = parent.rpartition(".")
+                (OmegaConf.select(view, grand) if grand else view).pop(name)
     for override in filter(_is_ref, overrides):
         key, _, value = override.partition("=")
         OmegaConf.update(view, key, f"stage:{identities[value[len(STAGE_REF) :]]}", force_add=True)
