@@ -60,8 +60,7 @@ def adopt(runs: list[Path], overrides: list[str]) -> dict[Path, Path]:
                 if config.get("mid"):  # the frozen mid level: the adopted copy of the run it named
                     config.mid = str(adopted[Path(config.mid).resolve()])
                     OmegaConf.save(config, target / RUN_CONFIG)
-                record = {"identity": stage.identity, "config": stage.cfg, "trained_as_run": str(run)}
-                OmegaConf.save(OmegaConf.create(record), directory / stages.IDENTITY_FILE)
+                stages.write_identity(directory, stage.cfg, stage.identity, trained_as_run=str(run))
                 adopted[run] = target.resolve()
                 print(f"adopted {run} as {' '.join(combo)} {stage.name}: {target}")
     for run in runs:

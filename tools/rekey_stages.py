@@ -26,8 +26,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-from omegaconf import OmegaConf
-
 from mapush.config import compose_config
 from mapush.experiments import stages
 from mapush.experiments.pipeline import planned_stages
@@ -84,12 +82,8 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
         for run_dir in find_runs(source):
             stages.copy_run(run_dir, target / run_dir.relative_to(source))
         cfg = stages.compose_stage(stage.overrides, lambda c, n=stage.iterations: n)
-        record = {
-            "identity": row["identity"],
-            "config": cfg,
-            "adopted_from": {"identity": old_ids[key], "commit": old_commit, "fingerprints": prints["new"]},
-        }
-        OmegaConf.save(OmegaConf.create(record), target / stages.IDENTITY_FILE)
+        adopted_from = {"identity": old_ids[key], "commit": old_commit, "fingerprints": prints["new"]}
+        stages.write_identity(target, cfg, row["identity"], adopted_from=adopted_from)
         print(f"adopted {row['job']} {row['stage']} ({stages.status(source, stage.iterations)}): "
               f"{old_ids[key]} -> {row['identity']}")  # fmt: skip
         adopted += 1

@@ -187,10 +187,11 @@ def cost_per_env_step(results: list[dict], roots: list[Path]) -> dict[tuple, flo
     return {kind: seconds[kind] / steps[kind] for kind in seconds if steps[kind]}
 
 
-def write_identity(directory: Path, cfg: dict, key: str) -> None:
-    """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run."""
+def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:
+    """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run; `origin`: where
+    a run made elsewhere came from (`adopted_from`, `trained_as_run`)."""
     Path(directory).mkdir(parents=True, exist_ok=True)
-    OmegaConf.save(OmegaConf.create({"identity": key, "config": cfg}), Path(directory) / IDENTITY_FILE)
+    OmegaConf.save(OmegaConf.create({"identity": key, "config": cfg, **origin}), Path(directory) / IDENTITY_FILE)
 
 
 def copy_run(run_dir: Path, target: Path) -> None:

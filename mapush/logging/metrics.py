@@ -118,8 +118,9 @@ class McapLogWriter(LogWriter):
         if tag == "Perf/total_fps":
             self.add_scalar("Perf/env_steps_per_s", value / self.rows_per_env, global_step)
         if tag == "Perf/collection_time" and self._cpu_mark is not None:  # once an iteration: CPU since the last
-            cpu, self._cpu_mark = time.process_time() - self._cpu_mark, time.process_time()
-            self.add_scalar(CPU_TAG, cpu, global_step)
+            now = time.process_time()
+            self.add_scalar(CPU_TAG, now - self._cpu_mark, global_step)
+            self._cpu_mark = now
         if tag == "Perf/collection_time" and self.threads:
             self.add_scalar(THREADS_TAG, self.threads, global_step)
 
