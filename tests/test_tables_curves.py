@@ -120,7 +120,8 @@ def test_the_main_tables_findings_from_hand_made_results():
     results = [
         job("ours", 0, {"main": (0.80, 0.50), "path_only": (0.90, 0.45), "go1": (0.75, 0.6)}),
         job("ours", 1, {"main": (0.70, 0.60), "path_only": (0.70, 0.60), "go1": (0.55, 0.7)}),
-        job("sa", 0, {"main": (0.10, 0.90)}),
+        job("sa", 0, {"main": (0.10, 0.90), "go1": (0.40, 0.8)}),
+        job("sa", 1, {"main": (0.20, 0.90), "go1": (0.90, 0.4)}),
         job("ml", 0, {"main": (0.80, 0.90)}),
     ]
     lines = _main_findings(results, PAPER["main"], "cuboid")
@@ -136,6 +137,12 @@ def test_the_main_tables_findings_from_hand_made_results():
     assert lines[2] == "Cuboid: baselines below Ours: SA; at or above: M+L"
     assert lines[3] == "Cuboid: the learned high level does not beat path following (-5.0 points of S.R.)"  # 75 - 80
     assert lines[4] == "Cuboid: on legged Go1s Ours loses 10.0 points of S.R., within 10 points"  # 75 - 65
+    # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
+    assert lines[5:] == ["Cuboid: on legged Go1s SA reaches 65.0 % of S.R., at or above Ours' 65.0 %"]
+    results[3]["evals"]["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
+    assert _main_findings(results, PAPER["main"], "cuboid")[5] == (
+        "Cuboid: on legged Go1s SA reaches 60.0 % of S.R., below Ours' 65.0 %"
+    )
     assert _main_findings(results, PAPER["main"], "tblock") == []
 
 

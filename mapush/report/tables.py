@@ -26,8 +26,13 @@ SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 """The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
 
 
-EXTRA_OURS = {"path_only": "Ours, path only", "go1": "Ours, legged"}
-"""Evaluations of Ours that the main table shows beside the paper's methods (conf/experiment/main.yaml)."""
+EXTRA_COLUMNS = {
+    ("ours", "path_only"): "Ours, path only",
+    ("ours", "go1"): "Ours, legged",
+    ("sa", "go1"): "SA, legged",
+}
+"""Other evaluations (method, eval name) the main table shows beside the paper's methods (conf/experiment/main.yaml):
+path following, and the legged Go1s that the paper's robots were, for Ours and for its strongest baseline here."""
 
 
 def _matching(results: list[dict], **match) -> list[dict]:
@@ -71,8 +76,8 @@ def main_table(results: list[dict], variant: str) -> Table:
                 if not cell.values:
                     missing.append(f"{method} / {task} / {metric}: no finished job")
                 cells.append(cell)
-            for eval_name, column in EXTRA_OURS.items():  # Ours' other evaluations (not in the paper)
-                extra = _collect(mine, key, scale, method="ours", task=task, eval=eval_name)
+            for (method, eval_name), column in EXTRA_COLUMNS.items():  # other evaluations (not in the paper)
+                extra = _collect(mine, key, scale, method=method, task=task, eval=eval_name)
                 extra.digits = digits
                 if not extra.values:
                     missing.append(f"{column} / {task} / {metric}: no finished job")
@@ -93,13 +98,14 @@ def main_table(results: list[dict], variant: str) -> Table:
         f"main_{variant}",
         f"Main results ({variant}): ours (paper)",
         ["Task", "Metric"],
-        [*(paper["labels"][m] for m in methods), *EXTRA_OURS.values()],
+        [*(paper["labels"][m] for m in methods), *EXTRA_COLUMNS.values()],
         rows,
         sorted(set(missing)),
         "S.R. over the evaluation trials, C.T. normalized by the timeout; mean \u00b1 std over training seeds. "
         "Ours, path only: Ours' hierarchy with every subgoal on the planned path (`level.follow_path=true`), the bar "
         "its learned high level has to clear. Ours, legged: the same policies on Go1s walked by the shipped "
-        "locomotion policy (`lowlevel=go1`), the figure to hold against the paper's legged robots.",
+        "locomotion policy (`lowlevel=go1`), the figure to hold against the paper's legged robots; SA, legged: the "
+        "single robot on a Go1 likewise.",
         findings,
         panels,
     )
@@ -160,6 +166,25 @@ def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
             verdict = "within" if gap <= LEGGED_GAP else "not within"
             line = f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points"
             lines.append(line + _ended_by(mine, task, eval_name))
+    lines += _legged_baseline(mine, paper, task)
+    return lines
+
+
+def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[str]:
+    """The paper's comparison on legs: each baseline evaluated on Go1s (`go1`) against Ours on Go1s."""
+    ours = _collect(mine, "success_rate", 100.0, method="ours", task=task, eval="go1").values
+    if not ours:
+        return []
+    lines, ours_mean = [], float(np.mean(ours))
+    for method in (m for m in paper["methods"] if m != "ours"):
+        legged = _collect(mine, "success_rate", 100.0, method=method, task=task, eval="go1").values
+        if legged:
+            mean = float(np.mean(legged))
+            verdict = "below" if mean < ours_mean else "at or above"
+            lines.append(
+                f"{paper['task_labels'][task]}: on legged Go1s {paper['labels'][method]} reaches {mean:.1f} % of "
+                f"S.R., {verdict} Ours' {ours_mean:.1f} %"
+            )
     return lines
 
 
