@@ -23,6 +23,9 @@ SMOKE = ["budget=smoke", "debug=smoke"]
 SPEC = importlib.util.spec_from_file_location("adopt_runs", Path(__file__).parents[1] / "tools" / "adopt_runs.py")
 adopt_runs = importlib.util.module_from_spec(SPEC)
 SPEC.loader.exec_module(adopt_runs)
+SHIPPED_GO1 = Path(__file__).parents[1] / "mapush" / "lowlevel" / "pretrained" / "go1" / "policy.pt"
+SHIPPED_GO1_SHA256 = hashlib.sha256(SHIPPED_GO1.read_bytes()).hexdigest()[:16]
+"""How a legged evaluation names the policy that walked its robots (`lowlevel_policy.sha256` in result.json)."""
 
 
 def _identities(*overrides: str) -> dict[str, str]:
@@ -236,11 +239,18 @@ def _job_cfg(root: Path, *overrides: str):
 
 
 def _fake_result(cfg, identities: dict[str, str]) -> dict:
-    """A finished job's result whose stage runs lie in the store under `identities` (nothing trained)."""
+    """A finished job's result whose stage runs lie in the store under `identities` (nothing trained), with the
+    evaluations the experiment asks of its method; a legged one names the shipped Go1 policy that walked it."""
     store = Path(cfg.sweep_root) / "stages"
+    evals = {}
+    for name, spec in cfg.experiment.evals.items():
+        if pipeline.applies(spec, cfg.method.name):
+            legged = "lowlevel=go1" in pipeline.eval_overrides(spec)
+            walker = {"lowlevel_policy": {"sha256": SHIPPED_GO1_SHA256}} if legged else {}
+            evals[name] = {"success_rate": 0.5, **walker}
     return {
         "stages": {name: str(store / key / name / "cylinder" / "run") for name, key in identities.items()},
-        "evals": {"main": {"success_rate": 0.5}},
+        "evals": evals,
         "curve": {"points": []},
     }
 
@@ -279,7 +289,7 @@ def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli
     stale = _fake_result(cfg, now)
     stale["evals"] = {"old_name": {}}
     (job / RESULT).write_text(json.dumps(stale))
-    assert "its evaluations changed (old_name -> main)" in cli(*args).stdout
+    assert "its evaluations changed (old_name -> go1, main)" in cli(*args).stdout
 
 
 def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(cli, tmp_path, capsys):
