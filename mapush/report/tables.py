@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from omegaconf import OmegaConf
 
 from mapush.config import group_file
 from mapush.experiments.archive import load_results, made_otherwise
@@ -27,12 +28,13 @@ SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 
 
 EXTRA_COLUMNS = {
-    ("ours", "path_only"): "Ours, path only",
-    ("ours", "go1"): "Ours, legged",
-    ("sa", "go1"): "SA, legged",
+    (method, name): f"{PAPER['main']['labels'][method]}, {spec.column}"
+    for name, spec in group_file("experiment", "main").evals.items()
+    if not OmegaConf.is_list(spec) and "column" in spec
+    for method in spec.methods
 }
-"""Other evaluations (method, eval name) the main table shows beside the paper's methods (conf/experiment/main.yaml):
-path following, and the legged Go1s that the paper's robots were, for Ours and for its strongest baseline here."""
+"""The main table's columns beside the paper's methods, (method, evaluation) -> label: the evaluations of
+conf/experiment/main.yaml that name a `column` (path following; the legged Go1s that the paper's robots were)."""
 
 
 def _matching(results: list[dict], **match) -> list[dict]:
