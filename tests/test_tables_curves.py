@@ -245,3 +245,42 @@ def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli
     ) in md
     assert "3 robots: the last 20 % of the budget added +10.0 \u00b1 0.0 points over 3 seeds" in md  # the hierarchy's
     assert (tmp_path / "out" / "scale_quick_mid_curves.png").stat().st_size > 1000
+
+
+def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made_results():
+    from mapush.report.tables import scale_table
+
+    # (robots: hierarchy S.R. per seed, C.T., mid level S.R. per seed); 6 robots lie outside the paper's figure
+    made = {
+        1: ((0.1, 0.2), 0.9, (0.4, 0.4)),
+        2: ((0.5, 0.7), 0.6, (0.3, 0.5)),
+        3: ((0.8, 0.9), 0.4, (0.7, 0.7)),
+        4: ((0.7, 0.8), 0.5, (0.8, 0.8)),
+        6: ((0.95, 0.95), 0.3, (0.99, 0.99)),
+    }
+    results = [
+        {"job_dir": f"agents={n},seed={seed}", "table": "scale", "variant": "quick", "num_agents": n, "seed": seed,
+         "evals": {"main": {"success_rate": sr[seed], "completion_time": ct}, "mid": {"success_rate": mid[seed]}}}
+        for n, (sr, ct, mid) in made.items() for seed in (0, 1)
+    ]  # fmt: skip
+    findings = scale_table(results, "quick").findings
+    claims = {line.split(". Here, ")[0]: line.split(". Here, ")[1] for line in findings if ". Here, " in line}
+    paper = "The paper (1, 2, 3, 4 robots): "
+    # hierarchy: 15 +- 5, 60 +- 10, 85 +- 5, 75 +- 5 %; C.T. 0.9, 0.6, 0.4, 0.5; mid level: 40, 40 +- 10, 70, 80 %
+    assert claims[paper + "one robot struggles"] == (
+        "whole hierarchy: holds (1 robot 15.0 %, the lowest other: 2 robots at 60.0 %); "
+        "mid level alone: does not hold (1 robot 40.0 %, the lowest other: 2 robots at 40.0 %)"
+    )
+    assert claims[paper + "two robots improve S.R. substantially on one"] == (
+        "whole hierarchy: holds (+45.0 points, the seeds' spread 10.0); "
+        "mid level alone: does not hold (+0.0 points, the seeds' spread 10.0)"
+    )
+    assert claims[paper + "three robots are best on both metrics"] == (
+        "whole hierarchy: holds (the highest S.R.: 3 robots; the lowest C.T.: 3 robots); "
+        "mid level alone: does not hold (the highest S.R.: 4 robots)"
+    )
+    assert claims[paper + "four robots do slightly worse than three"] == (
+        "whole hierarchy: holds (-10.0 points from 3 robots to 4); "
+        "mid level alone: does not hold (+10.0 points from 3 robots to 4)"
+    )
+    assert findings[0] == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)"

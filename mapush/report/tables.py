@@ -294,16 +294,17 @@ def scale_table(results: list[dict], variant: str) -> Table:
         elif not cells[2].values:
             missing.append(f"{_robots(n)} / mid level: no evaluation of the mid level alone")
         rows.append(([str(n)], cells))
-    lines = {_robots(n): _matching(mine, num_agents=n) for n in counts}
-    findings = list(filter(None, (plots.budget_verdict(label, r) for label, r in lines.items())))
-    drawn = plots.drawn_stages(mine)
-    findings += [v for label, r in lines.items() for v in plots.stage_verdicts(label, r, drawn)]
+    findings = []
     measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
     if measured:
         best = max(measured)
         among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
-        findings.insert(0, f"Best robot count{among} here: {best[2]} ({best[0]:.1f} \u00b1 {best[1]:.1f} % S.R.)")
-    findings += _reference_mid_finding(rows)
+        findings.append(f"Best robot count{among} here: {best[2]} ({best[0]:.1f} \u00b1 {best[1]:.1f} % S.R.)")
+    findings += _scale_paper_findings(rows) + _reference_mid_finding(rows)
+    lines = {_robots(n): _matching(mine, num_agents=n) for n in counts}
+    findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
+    drawn = plots.drawn_stages(mine)
+    findings += [v for label, r in lines.items() for v in plots.stage_verdicts(label, r, drawn)]
     return Table(
         f"scale_{variant}",
         f"Scalability, cylinder ({variant})",
@@ -316,6 +317,66 @@ def scale_table(results: list[dict], variant: str) -> Table:
         findings,
         {"Cylinder": lines},
     )
+
+
+def _scale_paper_findings(rows: list) -> list[str]:
+    """The paper's four readings of its scalability figure (paper IV-B-3; it gives no numbers), each judged on the
+    means over seeds of the whole hierarchy (S.R., and C.T. where the paper says "both metrics") and of the mid
+    level alone (S.R.), among the figure's robot counts that finished."""
+    figure = PAPER["scale"]["robots"]
+
+    def means(column: int) -> dict[int, float]:
+        return {int(labels[0]): float(np.mean(c[column].values)) for labels, c in rows
+                if c[column].values and int(labels[0]) in figure}  # fmt: skip
+
+    def spread(column: int, n: int) -> float:
+        return next(float(np.std(c[column].values)) for labels, c in rows if labels[0] == str(n))
+
+    def one_struggles(sr: dict, column: int) -> tuple[bool, str] | None:
+        if 1 not in sr or len(sr) < 2:
+            return None
+        others = {n: v for n, v in sr.items() if n != 1}
+        low = min(others, key=others.get)
+        return sr[1] < others[low], f"1 robot {sr[1]:.1f} %, the lowest other: {_robots(low)} at {others[low]:.1f} %"
+
+    def two_improve(sr: dict, column: int) -> tuple[bool, str] | None:
+        if not {1, 2} <= sr.keys():
+            return None
+        gain, noise = sr[2] - sr[1], max(spread(column, 1), spread(column, 2))
+        return gain > noise, f"{gain:+.1f} points, the seeds' spread {noise:.1f}"
+
+    def three_best(sr: dict, column: int) -> tuple[bool, str] | None:
+        if 3 not in sr or len(sr) < 2:
+            return None
+        best = max(sr, key=sr.get)
+        holds, detail = best == 3, f"the highest S.R.: {_robots(best)}"
+        ct = means(1)
+        if column == 0 and 3 in ct:
+            fastest = min(ct, key=ct.get)
+            holds, detail = holds and fastest == 3, f"{detail}; the lowest C.T.: {_robots(fastest)}"
+        return holds, detail
+
+    def four_worse(sr: dict, column: int) -> tuple[bool, str] | None:
+        if not {3, 4} <= sr.keys():
+            return None
+        return sr[4] < sr[3], f"{sr[4] - sr[3]:+.1f} points from 3 robots to 4"
+
+    claims = {
+        "one robot struggles": one_struggles,
+        "two robots improve S.R. substantially on one": two_improve,
+        "three robots are best on both metrics": three_best,
+        "four robots do slightly worse than three": four_worse,
+    }
+    lines = []
+    for claim, judge in claims.items():
+        parts = []
+        for column, what in ((0, "whole hierarchy"), (2, "mid level alone")):
+            verdict = judge(means(column), column)
+            if verdict is not None:
+                parts.append(f"{what}: {'holds' if verdict[0] else 'does not hold'} ({verdict[1]})")
+        if parts:
+            lines.append(f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {'; '.join(parts)}")
+    return lines
 
 
 def _reference_mid_finding(rows: list) -> list[str]:
