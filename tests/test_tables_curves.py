@@ -264,23 +264,17 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
         for n, (sr, ct, mid) in made.items() for seed in (0, 1)
     ]  # fmt: skip
     findings = scale_table(results, "quick").findings
-    claims = {line.split(". Here, ")[0]: line.split(". Here, ")[1] for line in findings if ". Here, " in line}
+    claims = dict(line.split(". Here, ") for line in findings if ". Here, " in line)
     paper = "The paper (1, 2, 3, 4 robots): "
     # hierarchy: 15 +- 5, 60 +- 10, 85 +- 5, 75 +- 5 %; C.T. 0.9, 0.6, 0.4, 0.5; mid level: 40, 40 +- 10, 70, 80 %
-    assert claims[paper + "one robot struggles"] == (
-        "whole hierarchy: holds (1 robot 15.0 %, the lowest other: 2 robots at 60.0 %); "
-        "mid level alone: does not hold (1 robot 40.0 %, the lowest other: 2 robots at 40.0 %)"
-    )
-    assert claims[paper + "two robots improve S.R. substantially on one"] == (
-        "whole hierarchy: holds (+45.0 points, the seeds' spread 10.0); "
-        "mid level alone: does not hold (+0.0 points, the seeds' spread 10.0)"
-    )
-    assert claims[paper + "three robots are best on both metrics"] == (
-        "whole hierarchy: holds (the highest S.R.: 3 robots; the lowest C.T.: 3 robots); "
-        "mid level alone: does not hold (the highest S.R.: 4 robots)"
-    )
-    assert claims[paper + "four robots do slightly worse than three"] == (
-        "whole hierarchy: holds (-10.0 points from 3 robots to 4); "
-        "mid level alone: does not hold (+10.0 points from 3 robots to 4)"
-    )
+    assert claims == {
+        paper + "one robot struggles": "whole hierarchy: holds (1 robot 15.0 %, the lowest other: 2 robots at 60.0 %); "
+        "mid level alone: does not hold (1 robot 40.0 %, the lowest other: 2 robots at 40.0 %)",
+        paper + "two robots improve S.R. substantially on one": "whole hierarchy: holds (+45.0 points, the seeds' "
+        "spread 10.0); mid level alone: does not hold (+0.0 points, the seeds' spread 10.0)",
+        paper + "three robots are best on both metrics": "whole hierarchy: holds (the highest S.R.: 3 robots; the "
+        "lowest C.T.: 3 robots); mid level alone: does not hold (the highest S.R.: 4 robots)",
+        paper + "four robots do slightly worse than three": "whole hierarchy: holds (-10.0 points from 3 robots to 4); "
+        "mid level alone: does not hold (+10.0 points from 3 robots to 4)",
+    }
     assert findings[0] == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)"
