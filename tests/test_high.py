@@ -147,6 +147,8 @@ def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_p
     result = json.loads((run_dir / "eval.json").read_text())
     assert result["per_seed"][0]["planner_failure_rate"] == 0.0
     assert 0.0 <= result["success_rate"] <= 1.0 and result["timeout_s"] == 1.0
+    # the planned paths run from the object's start area (x <= -4.5) to the goal area (x >= 5.5): 10 m at least
+    assert result["path_length_m"] >= 10.0 and result["path_length_m"] == result["per_seed"][0]["path_length_m"]
     # the "path only" reference: the same run with every subgoal on the planned path, beside its own eval.json
     path_only = cli("eval", run_dir, "--episodes", "2", "level.follow_path=true")
     assert path_only.returncode == 0, path_only.stderr

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 
 from mapush.api import make_env
+from mapush.planning.paths import length as path_length
 
 
 def main() -> None:
@@ -24,12 +25,19 @@ def main() -> None:
     print("task        path (m): mean   min   max   straight   path / straight")
     for task in args.tasks.split(","):
         env = make_env(
-            ["level=high", f"mid=mapush/policies/{task}/mid", f"task={task}", f"num_envs={args.episodes}",
-             f"seed={args.seed}", "sim.nthread=1", *args.overrides],
+            [
+                "level=high",
+                f"mid=mapush/policies/{task}/mid",
+                f"task={task}",
+                f"num_envs={args.episodes}",
+                f"seed={args.seed}",
+                "sim.nthread=1",
+                *args.overrides,
+            ],
             evaluation=True,
         )
         path = env.path  # (E, points, 2), start at the object, end at the target
-        length = (path[:, 1:] - path[:, :-1]).norm(dim=-1).sum(-1)
+        length = path_length(path)
         straight = (path[:, -1] - path[:, 0]).norm(dim=-1)
         print(
             f"{task:<20} {length.mean():6.1f} {length.min():5.1f} {length.max():5.1f} {straight.mean():8.1f}"

@@ -23,6 +23,7 @@ from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.lowlevel import BACKENDS
+from mapush.planning.paths import length
 from mapush.rewards.manager import RewardManager
 from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
@@ -54,6 +55,8 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     kind = torch.full((episodes,), -1)  # the exception that ended each failed episode (`env.exception_names`)
     time_s = torch.zeros(episodes)
     tracking = {name: torch.zeros(episodes) for name in TRACKING_ERRORS}  # the low level: each episode's means
+    path = getattr(env, "path", None)  # the high levels: the first episodes' reference paths, before any reset
+    reference = {"path_length_m": length(path).mean().item()} if path is not None else {}
     obs = vec.get_observations()
     with torch.inference_mode():
         while not finished.all():
@@ -78,6 +81,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
         low_level["fall_rate"] = exception.float().mean().item()
     return {
         **low_level,
+        **reference,
         "seed": seed,
         "episodes": episodes,
         "success_rate": success.float().mean().item(),
@@ -189,6 +193,8 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
     walker = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) if lowlevel else None
     if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
+    if "path_length_m" in per_seed[0]:  # how far the high level had to push: the mean reference path's length
+        result["path_length_m"] = float(np.mean([r["path_length_m"] for r in per_seed]))
     if TRACKING_ERRORS[0] in per_seed[0]:  # the low level (architecture 6): tracking errors and falls
         for key in (*TRACKING_ERRORS, "fall_rate"):
             result[key] = float(np.mean([r[key] for r in per_seed]))
