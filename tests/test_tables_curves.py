@@ -278,3 +278,8 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
         "mid level alone: does not hold (+10.0 points from 3 robots to 4)",
     }
     assert findings[0] == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)"
+    # 6 robots brought down to 3 robots' mean: a tie, named as one
+    main = {"success_rate": 0.85, "completion_time": 0.3}
+    tied = [{**r, "evals": {**r["evals"], "main": main}} if r["num_agents"] == 6 else r for r in results]
+    best = "Best robot count here: 3 (85.0 \u00b1 5.0 % S.R.) and 6 (85.0 \u00b1 0.0 % S.R.), tied"
+    assert scale_table(tied, "quick").findings[0] == best

@@ -297,9 +297,10 @@ def scale_table(results: list[dict], variant: str) -> Table:
     findings = []
     measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
     if measured:
-        best = max(measured)
+        top = max(m[0] for m in measured)
+        best = [f"{n} ({mean:.1f} \u00b1 {std:.1f} % S.R.)" for mean, std, n in measured if np.isclose(mean, top)]
         among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
-        findings.append(f"Best robot count{among} here: {best[2]} ({best[0]:.1f} \u00b1 {best[1]:.1f} % S.R.)")
+        findings.append(f"Best robot count{among} here: {' and '.join(best)}" + (", tied" if len(best) > 1 else ""))
     findings += _scale_paper_findings(rows) + _reference_mid_finding(rows)
     lines = {_robots(n): _matching(mine, num_agents=n) for n in counts}
     findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
