@@ -23,7 +23,7 @@ from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.lowlevel import BACKENDS
-from mapush.planning.paths import length
+from mapush.planning.paths import length as path_length
 from mapush.rewards.manager import RewardManager
 from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
@@ -56,7 +56,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     time_s = torch.zeros(episodes)
     tracking = {name: torch.zeros(episodes) for name in TRACKING_ERRORS}  # the low level: each episode's means
     path = getattr(env, "path", None)  # the high levels: the first episodes' reference paths, before any reset
-    reference = {"path_length_m": length(path).mean().item()} if path is not None else {}
+    reference = {"path_length_m": path_length(path).mean().item()} if path is not None else {}
     obs = vec.get_observations()
     with torch.inference_mode():
         while not finished.all():
