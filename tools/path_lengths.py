@@ -13,6 +13,7 @@ import argparse
 
 from mapush.api import make_env
 from mapush.planning.paths import length as path_length
+from mapush.rundir import shipped_run
 
 
 def main() -> None:
@@ -27,7 +28,7 @@ def main() -> None:
         env = make_env(
             [
                 "level=high",
-                f"mid=mapush/policies/{task}/mid",
+                f"mid={shipped_run(f'{task}/mid')}",  # the shipped mid level: the map needs one
                 f"task={task}",
                 f"num_envs={args.episodes}",
                 f"seed={args.seed}",

@@ -333,6 +333,8 @@ def _scale_paper_findings(rows: list) -> list[str]:
     def spread(column: int, n: int) -> float:
         return next(float(np.std(c[column].values)) for labels, c in rows if labels[0] == str(n))
 
+    ct = means(1)
+
     def one_struggles(sr: dict, column: int) -> tuple[bool, str] | None:
         if 1 not in sr or len(sr) < 2:
             return None
@@ -351,7 +353,6 @@ def _scale_paper_findings(rows: list) -> list[str]:
             return None
         best = max(sr, key=sr.get)
         holds, detail = best == 3, f"the highest S.R.: {_robots(best)}"
-        ct = means(1)
         if column == 0 and 3 in ct:
             fastest = min(ct, key=ct.get)
             holds, detail = holds and fastest == 3, f"{detail}; the lowest C.T.: {_robots(fastest)}"
@@ -368,11 +369,12 @@ def _scale_paper_findings(rows: list) -> list[str]:
         "three robots are best on both metrics": three_best,
         "four robots do slightly worse than three": four_worse,
     }
+    judged = {0: ("whole hierarchy", means(0)), 2: ("mid level alone", means(2))}
     lines = []
     for claim, judge in claims.items():
         parts = []
-        for column, what in ((0, "whole hierarchy"), (2, "mid level alone")):
-            verdict = judge(means(column), column)
+        for column, (what, sr) in judged.items():
+            verdict = judge(sr, column)
             if verdict is not None:
                 parts.append(f"{what}: {'holds' if verdict[0] else 'does not hold'} ({verdict[1]})")
         if parts:
