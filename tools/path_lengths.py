@@ -23,7 +23,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("overrides", nargs="*")
     args = parser.parse_args()
-    print("task        path (m): mean   min   max   straight   path / straight")
+    print(f"{'task':<20} {'mean':>6} {'min':>5} {'max':>5} {'straight':>8} {'path/straight':>14}   (path lengths, m)")
     for task in args.tasks.split(","):
         env = make_env(
             [

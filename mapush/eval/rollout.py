@@ -193,10 +193,10 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
     walker = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) if lowlevel else None
     if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
-    if "path_length_m" in per_seed[0]:  # how far the high level had to push: the mean reference path's length
-        result["path_length_m"] = float(np.mean([r["path_length_m"] for r in per_seed]))
-    if TRACKING_ERRORS[0] in per_seed[0]:  # the low level (architecture 6): tracking errors and falls
-        for key in (*TRACKING_ERRORS, "fall_rate"):
+    # figures only some levels record, averaged over seeds: the high level's reference path length (how far it had
+    # to push), the low level's tracking errors and falls (architecture 6)
+    for key in ("path_length_m", *TRACKING_ERRORS, "fall_rate"):
+        if key in per_seed[0]:
             result[key] = float(np.mean([r[key] for r in per_seed]))
     return result
 

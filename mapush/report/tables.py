@@ -331,7 +331,7 @@ def _scale_paper_findings(rows: list) -> list[str]:
                 if c[column].values and int(labels[0]) in figure}  # fmt: skip
 
     def spread(column: int, n: int) -> float:
-        return next(float(np.std(c[column].values)) for labels, c in rows if labels[0] == str(n))
+        return next(float(np.std(c[column].values)) for labels, c in rows if int(labels[0]) == n)
 
     ct = means(1)
 
