@@ -25,6 +25,7 @@ import numpy as np
 import torch
 from omegaconf import OmegaConf
 
+from mapush.atomic import write_text
 from mapush.config import CONF_DIR, compose_config, to_plain
 from mapush.lowlevel import BACKENDS
 from mapush.planning.geometry import rotate
@@ -218,7 +219,7 @@ def calibrate(
         },
         "force_grid": FORCE_GRID.tolist(),
     }
-    (out_dir / "calibration.json").write_text(json.dumps(summary, indent=1) + "\n")
+    write_text(out_dir / "calibration.json", json.dumps(summary, indent=1) + "\n")
     plot_calibration(free, commands, fitted, pushes, out_dir / "calibration.png")
     return summary
 
@@ -235,7 +236,7 @@ def write_tracker_config(path: Path, fitted: dict, source: str) -> None:
         comment = (found.group(1) or "").split(CALIBRATED)[0].rstrip("; ")
         line = f"{key}: {value:.4g}  # {comment}; {CALIBRATED} {source}, {stamp}".replace("#  ;", "#")
         text = text[: found.start()] + line + text[found.end() :]
-    Path(path).write_text(text)
+    write_text(Path(path), text)
 
 
 CALIBRATED = "calibrated against"

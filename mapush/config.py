@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import datetime
-import json
+import importlib.util
 import os
 import subprocess
 from pathlib import Path
@@ -13,6 +13,7 @@ from hydra.core.global_hydra import GlobalHydra
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import DictConfig, OmegaConf
 
+from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput
 from mapush.schema import check_config
 
@@ -41,16 +42,42 @@ def group_file(group: str, name: str) -> DictConfig:
     return OmegaConf.load(CONF_DIR / group / f"{name}.yaml")
 
 
-def group_options(group: str) -> list[str]:
-    """The config files of a group, by name (e.g. task -> cuboid, cylinder, ocb_cuboid, tblock)."""
-    return sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
+def group_options(group: str, extra_dirs: list[Path] = ()) -> list[str]:
+    """The config files of a group, by name (e.g. task -> cuboid, cylinder, ocb_cuboid, tblock), in the package's
+    config dir and in `extra_dirs` (those that `hydra.searchpath` adds)."""
+    return sorted({p.stem for d in (CONF_DIR, *extra_dirs) for p in (Path(d) / group).glob("*.yaml")})
+
+
+def search_dirs(overrides: list[str]) -> list[Path]:
+    """The config dirs that a `hydra.searchpath=[...]` override adds, where configs of your own live (a task
+    file at `<dir>/task/NAME.yaml`): `file://` paths, plain paths and `pkg://` packages (an installed plugin)."""
+    dirs = []
+    for override in overrides:
+        key, sep, _ = override.lstrip("+").partition("=")
+        if not sep or key != "hydra.searchpath":
+            continue
+        parsed = OverridesParser.create().parse_override(override.lstrip("+")).value()
+        for entry in parsed if isinstance(parsed, list) else [parsed]:
+            scheme, _, where = str(entry).rpartition("://")
+            if scheme == "pkg":
+                package, _, sub = where.partition("/")
+                spec = importlib.util.find_spec(package)
+                if spec is None or not spec.submodule_search_locations:
+                    raise BadInput(f"hydra.searchpath names pkg://{where}, not an installed package; valid: file://DIR")
+                dirs.append(Path(next(iter(spec.submodule_search_locations))) / sub)
+            else:
+                dirs.append(Path(where))
+    return dirs
 
 
 def _check_groups(overrides: list[str]) -> None:
+    extra = search_dirs(overrides)
     for override in overrides:
         key, sep, value = override.lstrip("+~").partition("=")
-        if sep and key in GROUPS and value not in group_options(key) and not (key == "debug" and value == "null"):
-            raise BadInput(f"unknown {key} {value!r}; valid: {', '.join(group_options(key))}")
+        options = group_options(key, extra) if key in GROUPS else []
+        if sep and key in GROUPS and value not in options and not (key == "debug" and value == "null"):
+            where = f" (in mapush and {', '.join(map(str, extra))})" if extra else " (add yours with hydra.searchpath)"
+            raise BadInput(f"unknown {key} {value!r}; valid{where}: {', '.join(options)}")
 
 
 def _unknown_key_message(base: DictConfig, full_key: str) -> str:
@@ -136,17 +163,16 @@ def new_run_dir(cfg: DictConfig) -> Path:
 def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], command: str) -> None:
     """Write what made the run: `config.yaml` (composed), `overrides.yaml`, `meta.json` (git, seed, command), and
     `.hydra/` as every Hydra app's run dir has it (`config.yaml`, `overrides.yaml`, `hydra.yaml`)."""
-    OmegaConf.save(cfg, run_dir / "config.yaml", resolve=True)
-    OmegaConf.save(OmegaConf.create(list(overrides)), run_dir / "overrides.yaml")
     meta = {"command": command, "seed": int(cfg.seed), **git_state(), "created": datetime.datetime.now().isoformat()}
-    (run_dir / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
     hydra_dir = run_dir / ".hydra"
     hydra_dir.mkdir(exist_ok=True)
-    OmegaConf.save(cfg, hydra_dir / "config.yaml", resolve=True)
-    OmegaConf.save(OmegaConf.create(list(overrides)), hydra_dir / "overrides.yaml")
     hydra_node = compose_config(overrides, hydra=True).hydra
     hydra_node.run.dir = str(run_dir)
-    OmegaConf.save(OmegaConf.create({"hydra": hydra_node}), hydra_dir / "hydra.yaml")
+    for directory in (hydra_dir, run_dir):  # config.yaml last: it is what makes a dir a run
+        write_yaml(directory / "overrides.yaml", list(overrides))
+        write_yaml(directory / "config.yaml", cfg, resolve=True)
+    write_yaml(hydra_dir / "hydra.yaml", {"hydra": hydra_node})
+    write_json(run_dir / "meta.json", meta)
 
 
 ABSENT_MEANT = {"level.path.plan_in_training": False}
@@ -165,7 +191,18 @@ def load_run_config(run_dir: Path) -> DictConfig:
         raise BadInput(f"{str(run_dir)!r} is not a run dir (no config.yaml); valid: a dir that `mapush train` made")
     root = OmegaConf.load(CONF_DIR / "config.yaml")
     root.pop("defaults")
-    run = OmegaConf.load(path)
+    try:
+        run = OmegaConf.load(path)
+    except Exception as err:  # YAML's and OmegaConf's parse errors have many types
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise BadInput(
+            f"{str(path)!r} is not a readable config ({first}); valid: the config.yaml a run was made with"
+        ) from None
+    if not isinstance(run, DictConfig) or "level" not in run or "task" not in run:
+        raise BadInput(
+            f"{str(path)!r} is not a run's config (empty, or no level or task); valid: the config.yaml "
+            "a run was made with"
+        )
     name = OmegaConf.select(run, "level.name", default="")
     if (CONF_DIR / "level" / f"{name}.yaml").is_file():
         root.level = level_defaults(name)

@@ -55,14 +55,26 @@ def plan_map(cfg: dict, seed: int, planner: ObjectPlanner) -> tuple[dict, PlanRe
 
 
 def timing(cfg: dict, seed: int, maps: int, planner: ObjectPlanner) -> dict:
-    """Plan `maps` maps (seeds seed .. seed + maps - 1); median time, solved and valid counts."""
-    times, solved, valid = [], 0, 0
+    """Plan `maps` maps (seeds seed .. seed + maps - 1); median time, the work (state validity checks) each plan
+    took, solved and valid counts, and how many plans the wall-clock safety net stopped."""
+    times, checks, solved, valid = [], [], 0, 0
+    stops_before = planner.wall_clock_stops
     for k in range(maps):
         _, result = plan_map(cfg, seed + k, planner)
         times.append(result.planning_time_s)
+        checks.append(planner.checks)
         solved += result.solved
         valid += result.valid
-    return {"maps": maps, "median_s": statistics.median(times), "max_s": max(times), "solved": solved, "valid": valid}
+    return {
+        "maps": maps,
+        "median_s": statistics.median(times),
+        "max_s": max(times),
+        "median_checks": statistics.median(checks),
+        "max_checks": max(checks),
+        "wall_clock_stops": planner.wall_clock_stops - stops_before,
+        "solved": solved,
+        "valid": valid,
+    }
 
 
 def draw(cfg: dict, record: dict, out: Path) -> Path:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
+from mapush.atomic import replacing
 from mapush.config import load_run_config
 from mapush.errors import BadInput
 from mapush.logging.mcap_files import training_scalars
@@ -96,8 +97,7 @@ def plot_runs(run_dirs: list[Path], out: Path, smooth: int = 5) -> Path:
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 3), frameon=False)
     fig.tight_layout(rect=(0, 0.04 + 0.03 * ((len(labels) - 1) // 3), 1, 1))
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp.png")
-    fig.savefig(tmp, dpi=110)
+    with replacing(out) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
-    tmp.replace(out)
     return out

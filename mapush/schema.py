@@ -14,6 +14,7 @@ from collections.abc import Callable
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.errors import BadInput
+from mapush.trust import check_class_names
 
 Rule = tuple[type, Callable[[float], bool], str]
 
@@ -61,6 +62,8 @@ RULES: dict[str, Rule] = {
     "task.collision_distance": _at_least(0.0, " m"),
     "level.episode_length_s": _positive("number of seconds"),
     "level.success_distance": _positive("distance in m"),
+    "level.planner.max_checks": _count(1),
+    "level.planner.time_limit_s": _positive("number of seconds"),
     "level.decision_steps": _count(1),
     "level.follow_path": _flag(),
     "level.randomize.load.fraction": _fraction(),
@@ -101,6 +104,8 @@ RULES: dict[str, Rule] = {
     "log.video.crf": (int, lambda v: 0 <= v <= 51, "an integer in [0, 51] (H.264 quality, lower is better)"),
 }
 """Every checked value: key -> (type, test, what is valid); for a list, of each item."""
+NAMES = ("task.name", "level.name", "lowlevel.name")
+"""Keys that name things (and so run dirs): one word each, never a path or a mapping."""
 
 
 def check_config(cfg: DictConfig | dict) -> None:
@@ -116,6 +121,16 @@ def check_config(cfg: DictConfig | dict) -> None:
     obj = OmegaConf.select(cfg, "task.object", default=None)
     if obj is not None:
         check_object(obj)
+    for name, term in (OmegaConf.select(cfg, "reward.terms", default=None) or {}).items():
+        if term is not None and "weight" in term:  # a NaN weight would make every total NaN, then zero
+            _check_value(f"reward.terms.{name}.weight", term.weight, float, lambda v: True, "a finite number")
+    for key in NAMES:
+        value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
+        if value is not None and not (isinstance(value, str) and value.replace("_", "").replace("-", "").isalnum()):
+            raise BadInput(f"{key}={value!r} is not valid; valid: a name of letters, digits, - and _")
+    algo = OmegaConf.select(cfg, "algo", default=None)
+    if algo is not None:
+        check_class_names("algo", OmegaConf.to_container(algo))
 
 
 def _check_value(key: str, value, kind: type, test: Callable, valid: str) -> None:

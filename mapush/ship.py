@@ -17,6 +17,7 @@ from pathlib import Path
 import torch
 from omegaconf import OmegaConf
 
+from mapush.atomic import write_json, write_yaml
 from mapush.config import load_run_config
 from mapush.errors import BadInput
 from mapush.eval.rollout import evaluate
@@ -53,8 +54,12 @@ def ship(run_dir: Path, out: Path, episodes: int, seeds: list[int]) -> Path:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    shutil.rmtree(out, ignore_errors=True)
+    old = out.with_name(f"{out.name}.old")  # the earlier policy stays until the new one is in place
+    shutil.rmtree(old, ignore_errors=True)
+    if out.exists():
+        os.replace(out, old)
     os.replace(tmp, out)
+    shutil.rmtree(old, ignore_errors=True)
     shipped = out / next(reversed(sources))  # the evaluated policy: the run itself, or the high level over its mid
     shipped = Path(os.path.relpath(shipped))  # eval.json names the checkpoint without this machine's absolute path
     return evaluate(shipped, episodes, seeds, ["log.eval_episodes=0"], out_dir=shipped)  # no episodes.mcap
@@ -85,7 +90,7 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     if mid is not None:
         cfg = OmegaConf.load(dest / "config.yaml")
         cfg.mid = mid
-        OmegaConf.save(cfg, dest / "config.yaml")
+        write_yaml(dest / "config.yaml", cfg)
     last = checkpoints(run_dir)[-1]
     data = read_checkpoint(last)
     torch.save({"actor_state_dict": data["actor_state_dict"], "iter": data["iter"], "infos": None}, dest / last.name)
@@ -94,4 +99,4 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     export_torchscript(policy.actor, dest / POLICY_FILE)
     meta = json.loads((dest / "meta.json").read_text())
     meta["shipped_from"] = {"run": run_dir.name, "checkpoint": last.name}
-    (dest / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+    write_json(dest / "meta.json", meta)

@@ -1,6 +1,7 @@
 """Config terms: a named function `module:function` with its params, as the reward, observation and exception
 sections of a level's config name them (`{name: {func, params, ...}}`). Resolved and checked once, when the env
-is built: a bad path or a params mismatch is one BadInput line naming the valid choices."""
+is built: a bad path or a params mismatch is one BadInput line naming the valid choices. Only code of trusted
+modules is imported (`mapush.trust`)."""
 
 from __future__ import annotations
 
@@ -10,10 +11,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mapush.errors import BadInput
+from mapush.trust import check_trusted
 
 
-def resolve_term(path: str) -> Callable:
-    """Import `module:function`; a bad path is a BadInput naming the module's public functions."""
+def resolve_term(path: str, key: str = "func") -> Callable:
+    """Import `module:function` from a trusted module; a bad path is a BadInput naming the module's public
+    functions."""
+    check_trusted(key, path)
     module_name, _, func_name = path.partition(":")
     try:
         module = importlib.import_module(module_name)
@@ -48,7 +52,7 @@ def bind_term(section: str, name: str, spec: dict) -> Term:
     existed as they were."""
     if not isinstance(spec, dict) or "func" not in spec:
         raise BadInput(f"{section}.{name} is {spec!r}; valid: a mapping with func: module:function and params")
-    func = resolve_term(spec["func"])
+    func = resolve_term(spec["func"], f"{section}.{name}.func")
     params = dict(spec.get("params") or {})
     signature = inspect.signature(func).parameters
     wanted = list(signature)[1:]

@@ -2,18 +2,20 @@
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 
 from omegaconf import DictConfig
 
+from mapush.atomic import remove_leftovers
 from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.levels import build, checked, scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
-from mapush.rl.runner import export_policy, learn, load_checkpoint, obs_width
+from mapush.rl.runner import POLICY_FILE, export_policy, learn, load_checkpoint, obs_width
 from mapush.rundir import checkpoint_iteration, checkpoints
 from mapush.schema import check_config
 from mapush.viz.video import attach_training_video
@@ -24,15 +26,23 @@ TRAIN_EPISODES = "train_episodes.mcap"
 def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     """Train a fresh run; returns its run dir."""
     plain = checked(cfg)  # every mistake fails here, before a run dir exists
+    chosen = cfg.train.get("run_dir")
+    existed = bool(chosen) and Path(chosen).exists()
     run_dir = new_run_dir(cfg)
-    save_run_config(run_dir, cfg, overrides, command)
+    try:
+        save_run_config(run_dir, cfg, overrides, command)
+    except BaseException:  # e.g. a full disk: no half-made run dir is left behind
+        if not existed:
+            shutil.rmtree(run_dir, ignore_errors=True)
+        raise
     print(run_dir, flush=True)
     _run(plain, run_dir)
     return run_dir
 
 
 def resume(run_dir: Path, iterations: int | None, nthread: int | None = None) -> Path:
-    """Continue a cut run from its latest checkpoint up to its configured (or the given) iteration count, with
+    """Continue a cut run from its latest checkpoint up to its configured (or the given) iteration count (a run cut
+    after its last iteration but before its export is exported), with
     `nthread` MuJoCo threads if given (a run cut on a machine of other cores; threads are not what it learns, and
     `Perf/threads` records each iteration's), else with those of its config."""
     cfg = load_run_config(run_dir)
@@ -45,9 +55,13 @@ def resume(run_dir: Path, iterations: int | None, nthread: int | None = None) ->
     if not found:
         raise BadInput(f"run dir {str(run_dir)!r} has no checkpoint to resume from; valid: a run with model_*.pt")
     done = checkpoint_iteration(found[-1]) + 1
+    if done >= cfg.train.iterations and not (Path(run_dir) / POLICY_FILE).is_file():  # cut while exporting
+        print(run_dir, flush=True)
+        return export_finished(run_dir)
     if done >= cfg.train.iterations:
         raise BadInput(f"run {str(run_dir)!r} already has {done} iterations; valid: train.iterations=N with N > {done}")
     print(run_dir, flush=True)
+    remove_leftovers(Path(run_dir))  # temp files of the writers the cut killed
     _repair_cut_logs(Path(run_dir))
     _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1])
     return Path(run_dir)
@@ -82,11 +96,26 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     video = attach_training_video(cfg, env, run_dir, done)  # None unless log.video_interval > 0
     try:
         learn(runner, total - done, run_dir / "train.log")
+    except KeyboardInterrupt:  # Ctrl-C: keep what was learned since the last checkpoint, say how to go on
+        _save_interrupted(runner, run_dir)
+        raise SystemExit(130) from None
     finally:
         for hook in (recorder, video):
             if hook is not None:
                 hook.close()
     export_policy(runner, run_dir)
+
+
+def _save_interrupted(runner, run_dir: Path) -> None:
+    """Checkpoint the networks as they are (the iterations before the cut one) and print the resume command."""
+    last = runner.current_learning_iteration - 1  # the interrupted iteration did not finish
+    path = run_dir / f"model_{last}.pt"
+    if last >= 0 and not path.exists():
+        runner.save(str(path))
+    saved = f"{path.name} saved" if path.exists() else "no iteration finished"
+    print(
+        f"mapush: interrupted ({saved}); continue with `mapush train --resume {run_dir}`", file=sys.stderr, flush=True
+    )
 
 
 def attach_episode_recorder(cfg: dict, env, path: Path, every_steps: int) -> EpisodeRecorder:

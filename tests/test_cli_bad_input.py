@@ -154,3 +154,85 @@ def test_eval_parses_values_as_train_does(cli, run_copy, snapshot):
     assert_bad_input(cli("eval", run_copy, "+sim.timestep=1e-3"), "'sim.timestep' already exists")
     assert_bad_input(cli("eval", run_copy, "seed=0,1"), "is a sweep")
     assert snapshot(run_copy) == before
+
+
+@pytest.mark.parametrize(
+    ("node", "entry"),
+    [
+        ("reward.terms.*", {"func": "pydoc:pipepager", "params": {"text": "x", "cmd": "touch {mark}"}}),
+        ("algo.algorithm", {"class_name": "pydoc:pipepager", "text": "x", "cmd": "touch {mark}"}),
+        ("algo.actor", {"class_name": "pydoc.pipepager", "text": "x", "cmd": "touch {mark}"}),
+    ],
+)
+@pytest.mark.parametrize("command", ["eval", "resume"])
+def test_a_run_dir_whose_config_names_foreign_code_is_refused_and_runs_nothing(
+    cli, run_copy, snapshot, tmp_path, node, entry, command
+):
+    """A shared run dir is data: its config.yaml cannot make `mapush eval` or `--resume` run a shell command."""
+    from omegaconf import OmegaConf
+
+    mark = tmp_path / "pwned"
+    cfg = OmegaConf.load(run_copy / "config.yaml")
+    if node.endswith("*"):  # the run's first reward term
+        node = f"reward.terms.{next(iter(cfg.reward.terms))}"
+    attack = {k: (v.format(mark=mark) if k == "cmd" else v) for k, v in entry.items()}
+    attack["params"] = {k: (v.format(mark=mark) if k == "cmd" else v) for k, v in attack.get("params", {}).items()}
+    if not attack["params"]:
+        attack.pop("params")
+    OmegaConf.update(cfg, node, {**OmegaConf.to_container(OmegaConf.select(cfg, node)), **attack}, merge=False)
+    OmegaConf.save(cfg, run_copy / "config.yaml")
+    before = snapshot(run_copy)
+    args = (
+        ("eval", run_copy, "--episodes", "1")
+        if command == "eval"
+        else ("train", "--resume", run_copy, "train.iterations=4")
+    )
+    assert_bad_input(cli(*args), "pipepager", "refused", "mapush --trust pydoc")
+    assert not mark.exists()
+    assert snapshot(run_copy) == before
+
+
+def test_a_module_the_user_trusts_on_the_command_line_may_be_named(cli, tmp_path, monkeypatch):
+    """`mapush --trust MODULE` lets a config name that module's terms (here a reward term of the user's own)."""
+    (tmp_path / "my_terms.py").write_text("def still(env):\n    return env.state.robot_xy[..., 0] * 0\n")
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))
+    term = "+reward.terms.still={func:my_terms:still,weight:1.0}"
+    runs = tmp_path / "runs"
+    refused = cli("train", "debug=smoke", f"train.run_root={runs}", term)
+    assert_bad_input(refused, "my_terms:still", "mapush --trust my_terms")
+    trusted = cli("--trust", "my_terms", "train", "debug=smoke", f"train.run_root={runs}", term)
+    assert trusted.returncode == 0, trusted.stderr
+
+
+@pytest.mark.parametrize(
+    ("override", "valid"),
+    [
+        ("reward.terms.subgoal_reached.weight=nan", "a finite number"),
+        ("reward.terms.subgoal_reached.weight=inf", "a finite number"),
+        ("task.name={a:1}", "a name of letters"),
+        ("task.name=../../x", "a name of letters"),
+    ],
+)
+def test_a_number_or_name_that_cannot_be_is_refused(train_bad, override, valid):
+    assert_bad_input(train_bad(override), override.partition("=")[0], valid)
+
+
+@pytest.mark.parametrize("args", [("-m", "seed=0,1"), ("seed=0,1",), ("--multirun", "task=cuboid"), ("seed=range(2)",)])
+def test_hydra_multirun_habits_point_to_mapush_sweep(train_bad, args):
+    line = assert_bad_input(train_bad(*args), "not a sweep", "valid:", "`mapush sweep")
+    assert "-m" not in line.partition("`mapush sweep")[2] and "--multirun" not in line.partition("`mapush sweep")[2]
+
+
+@pytest.mark.parametrize("text", ["", "{", "- a list\n", "level: {name: mid}\n"])
+def test_a_run_whose_config_yaml_is_torn_or_empty_is_one_line(cli, run_copy, snapshot, text):
+    (run_copy / "config.yaml").write_text(text)
+    before = snapshot(run_copy)
+    assert_bad_input(cli("eval", run_copy, "--episodes", "1"), "config.yaml", "valid: the config.yaml a run was made")
+    assert_bad_input(cli("train", "--resume", run_copy, "train.iterations=4"), "config.yaml")
+    assert snapshot(run_copy) == before
+
+
+def test_a_locomotion_policy_that_is_not_torchscript_is_one_line(train_bad, tmp_path):
+    fake = tmp_path / "policy.pt"
+    fake.write_bytes(b"not a zip archive")
+    assert_bad_input(train_bad("lowlevel=go1", f"lowlevel.policy={fake}"), "is not a TorchScript policy", "valid:")

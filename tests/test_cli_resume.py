@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import shutil
 
@@ -64,3 +65,17 @@ def test_resuming_a_finished_run_is_refused_and_writes_no_new_checkpoint(cli, ru
     assert proc.returncode == 2, proc.stderr
     assert "already has 2 iterations" in proc.stderr and "train.iterations=N with N > 2" in proc.stderr
     assert sorted(p.name for p in run_copy.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]
+
+
+def test_resuming_a_run_cut_before_its_export_exports_it(cli, run_copy):
+    exported = {name: (run_copy / name).read_bytes() for name in ("policy.pt", "policy.onnx")}
+    for name in exported:
+        (run_copy / name).unlink()
+    proc = cli("train", "--resume", run_copy)
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in run_copy.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]  # nothing trained
+    actor = torch.jit.load(run_copy / "policy.pt")
+    before = torch.jit.load(io.BytesIO(exported["policy.pt"]))
+    obs = torch.randn(4, 10)
+    assert torch.equal(actor(obs), before(obs))
+    assert (run_copy / "policy.onnx").stat().st_size > 0

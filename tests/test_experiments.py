@@ -3,16 +3,23 @@
 from __future__ import annotations
 
 import csv
+import fcntl
 import io
 import json
+import os
 import shutil
+import signal
+import subprocess
+import time
 from pathlib import Path
 
 import pytest
+from conftest import MAPUSH
 from omegaconf import OmegaConf
 
 from mapush.config import group_options
 from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
+from mapush.experiments.sweep import GRACE_S
 from mapush.logging.mcap_files import training_scalars
 from mapush.logging.metrics import THREADS_TAG
 from mapush.report import tables
@@ -332,3 +339,48 @@ def test_tables_reject_a_missing_runs_dir(cli, tmp_path):
 def test_the_paper_numbers_are_read_not_typed_twice():
     assert tables.PAPER["main"]["success_rate"]["cuboid"]["ours"] == [77.5, 3.0]
     assert tables.PAPER["ocb_ablation"]["completion_time_s"]["t40"]["ours_no_ocb"] == [34.9, 0.3]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_a_killed_sweep_leaves_no_process_behind_and_resumes(tmp_path, sig):
+    """The sweep's workers stop (logs closed, stage locks released) and exit when the sweep dies, even by SIGKILL;
+    the same command then resumes the cut stages from their checkpoints."""
+    cmd = [*MAPUSH, "sweep", "experiment=ocb_ablation", "budget=quick", "debug=smoke", "seed=0"]
+    cmd.append(f"sweep_root={tmp_path / 'sweeps'}")
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    sweep = subprocess.Popen(cmd, cwd=tmp_path, env=env, start_new_session=True, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)  # fmt: skip
+    deadline = time.monotonic() + 240
+    while len(list((tmp_path / "sweeps").glob("stages/*/mid/*/*/model_*.pt"))) < 4:  # both jobs are training
+        assert time.monotonic() < deadline and sweep.poll() is None
+        time.sleep(1)
+    sweep.send_signal(sig)
+    sweep.wait()
+    deadline = time.monotonic() + GRACE_S + 30
+    while _group_alive(sweep.pid):
+        assert time.monotonic() < deadline, "a worker outlived its sweep"
+        time.sleep(1)
+    cut = sorted((tmp_path / "sweeps").glob("stages/*/mid/*/*"))
+    assert len(cut) == 2 and all(not (run / "policy.pt").exists() for run in cut)
+    for run in cut:  # the stage lock is free: another process takes it at once
+        with open(run.parents[2] / ".lock") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    dry = subprocess.run([*cmd, "--dry-run"], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert dry.returncode == 0 and dry.stdout.count("resume") >= 2, dry.stdout
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_a_sweep_over_the_robot_count_may_name_it_as_the_task_key(cli, tmp_path):
+    """`task.num_agents=range(1,4)` is the `agents` axis, as Hydra users would write it."""
+    by_axis = _sweep(cli, tmp_path, "experiment=scale", "agents=1,2,3", "--dry-run")
+    by_key = _sweep(cli, tmp_path, "experiment=scale", "task.num_agents=range(1,4)", "--dry-run")
+    assert by_key.returncode == 0, by_key.stderr
+    assert by_key.stdout == by_axis.stdout and "agents=3" in by_key.stdout

@@ -605,3 +605,20 @@ def test_the_low_level_scene_draws_every_go1_geom_where_the_simulation_has_it(tm
     tf = topics["/tf"][0].transforms[0]
     assert [tf.translation.x, tf.translation.y, tf.translation.z] == pytest.approx(trunk.tolist(), abs=1e-6)
     assert len(topics["/commands"][0]["vx"]) == 1
+
+
+@pytest.mark.slow
+def test_ctrl_c_saves_the_networks_and_prints_the_resume_command(tmp_path):
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    cmd = [*MAPUSH, "train", "debug=smoke", "train.iterations=5000", "algo.save_interval=1000"]
+    cmd.append(f"train.run_root={tmp_path}")
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    run_dir = Path(proc.stdout.readline().strip())
+    _wait_for(lambda: (run_dir / "model_0.pt").exists())
+    time.sleep(5)  # some iterations past the only checkpoint
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=60) == 130
+    assert f"continue with `mapush train --resume {run_dir}`" in proc.stderr.read()
+    saved = sorted(run_dir.glob("model_*.pt"), key=lambda p: int(p.stem.partition("_")[2]))
+    assert len(saved) == 2 and saved[-1].name != "model_0.pt"
+    assert summary(run_dir / "metrics.mcap")["complete"]

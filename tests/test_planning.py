@@ -5,6 +5,8 @@ from __future__ import annotations
 import copy
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,8 +19,8 @@ from mapush.planning.geometry import corners, point_distance, polygon_gap
 from mapush.planning.paths import length, random_curved_paths, resample
 from mapush.planning.planner import ObjectPlanner
 
-PLANNER = {"name": "RRTConnect", "time_limit_s": 1.0, "range_m": 2.0, "margin_m": 0.1, "resolution_m": 0.05,
-           "simplify": True}  # fmt: skip
+PLANNER = {"name": "RRTConnect", "max_checks": 100_000, "time_limit_s": 1.0, "range_m": 2.0, "margin_m": 0.1,
+           "resolution_m": 0.05, "simplify": True}  # fmt: skip
 
 
 @pytest.fixture
@@ -119,14 +121,51 @@ def test_planned_paths_avoid_the_inflated_obstacles_and_have_the_waypoint_count(
         planner.close()
 
 
-def test_an_unreachable_goal_is_a_planner_failure():
-    planner = ObjectPlanner(PLANNER | {"time_limit_s": 0.2}, 24.0, 0.85)
-    wall = np.array([[0.0, y, 0.0, 1.0, 1.0] for y in np.arange(-11.5, 12.0, 1.0)])  # floor to ceiling
+WALL = np.array([[0.0, y, 0.0, 1.0, 1.0] for y in np.arange(-11.5, 12.0, 1.0)])
+"""A wall from floor to ceiling across the room: no path from x < 0 to x > 0."""
+
+
+def test_an_unreachable_goal_is_a_planner_failure_after_the_work_budget_not_the_clock():
+    planner = ObjectPlanner(PLANNER | {"max_checks": 20_000, "time_limit_s": 60.0}, 24.0, 0.85)
     try:
-        result = planner.plan(np.array([-8.0, 0.0]), np.array([8.0, 0.0]), wall, 32)
+        result = planner.plan(np.array([-8.0, 0.0]), np.array([8.0, 0.0]), WALL, 32)
+        assert not result.solved and not result.valid and result.path is None
+        assert 20_000 <= planner.checks < 21_000 and planner.wall_clock_stops == 0
     finally:
         planner.close()
-    assert not result.solved and not result.valid and result.path is None
+
+
+def test_the_wall_clock_safety_net_stops_a_plan_and_is_counted():
+    planner = ObjectPlanner(PLANNER | {"max_checks": 10**9, "time_limit_s": 0.05}, 24.0, 0.85)
+    try:
+        result = planner.plan(np.array([-8.0, 0.0]), np.array([8.0, 0.0]), WALL, 32)
+        assert not result.solved and planner.wall_clock_stops == 1
+    finally:
+        planner.close()
+
+
+def _plan_in_fresh_process(cfg_file, seeds_before: int) -> list:
+    """The path of map 7 from a planner seeded with 3, after `seeds_before` plans by another planner, in a new
+    process (OMPL's seed generator is process-wide)."""
+    script = f"""
+import json
+from mapush.plan import random_map
+from mapush.planning.planner import ObjectPlanner
+cfg = json.load(open({str(cfg_file)!r}))
+other = ObjectPlanner(cfg["level"]["planner"], 24.0, 0.85, seed=11)
+for s in range({seeds_before}):
+    other.plan(*random_map(cfg, s), 32)
+planner = ObjectPlanner(cfg["level"]["planner"], 24.0, 0.85, seed=3)
+print(json.dumps(planner.plan(*random_map(cfg, 7), 32).path.tolist()))
+"""
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    return json.loads(proc.stdout)
+
+
+def test_a_seeded_plan_does_not_depend_on_what_planned_before_it_in_the_process(high_cfg, tmp_path):
+    cfg_file = tmp_path / "cfg.json"
+    cfg_file.write_text(json.dumps(high_cfg))
+    assert _plan_in_fresh_process(cfg_file, 0) == _plan_in_fresh_process(cfg_file, 5)
 
 
 def test_unknown_planner_names_the_valid_ones():

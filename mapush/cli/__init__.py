@@ -6,6 +6,7 @@ Every command takes Hydra overrides (`key=value`); bad input is one line on stde
 
 from __future__ import annotations
 
+import errno
 import os
 import sys
 
@@ -18,6 +19,9 @@ from mapush.cli import runs, experiments, tools, logs  # noqa: F401  (each regis
 from mapush.cli.app import app
 from mapush.errors import BadInput
 
+FILESYSTEM_ERRORS = {errno.EROFS, errno.ENOSPC, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.ENOTDIR, errno.ENOENT}
+"""Where the disk, not mapush, refused: a read-only or full filesystem, no permission, a path that cannot be."""
+
 
 def main() -> None:
     """Entry point: BadInput becomes one line on stderr and exit code 2."""
@@ -25,6 +29,15 @@ def main() -> None:
         app()
     except BadInput as err:
         print(f"mapush: error: {err}", file=sys.stderr)
+        sys.exit(2)
+    except OSError as err:
+        if err.errno not in FILESYSTEM_ERRORS:
+            raise
+        where = f" {err.filename!r}" if err.filename else ""
+        print(
+            f"mapush: error: cannot write{where}: {err.strerror}; valid: a writable dir with free space",
+            file=sys.stderr,
+        )
         sys.exit(2)
     except KeyboardInterrupt:
         print(

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import os
+from importlib import metadata
+
 import typer
 
 from mapush.errors import BadInput
+from mapush.trust import TRUST_ENV
 
 app = typer.Typer(
     add_completion=False,
@@ -12,6 +16,40 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     help="Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl.",
 )
+
+
+def _print_version(asked: bool) -> None:
+    if asked:
+        print(f"mapush {metadata.version('mapush')}")
+        raise typer.Exit()
+
+
+@app.callback()
+def common(
+    trust: list[str] = typer.Option(
+        [],
+        "--trust",
+        metavar="MODULE",
+        help="Let configs name functions and classes of MODULE (repeatable); by default only mapush's and rsl-rl's.",
+    ),
+    version: bool = typer.Option(
+        False, "--version", help="Print mapush's version and exit.", is_eager=True, callback=_print_version
+    ),
+) -> None:
+    """Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl."""
+    if trust:  # in the environment, so that sweep workers and launched jobs trust the same modules
+        earlier = [m for m in os.environ.get(TRUST_ENV, "").split(",") if m]
+        os.environ[TRUST_ENV] = ",".join([*earlier, *trust])
+
+
+def groups_epilog() -> str:
+    """The config groups and their options, for the help of the commands that take Hydra overrides."""
+    from mapush.config import GROUPS, group_options
+
+    choices = "; ".join(f"{group}={'|'.join(group_options(group))}" for group in GROUPS)
+    return f"Config groups: {choices}. Any key: key=value (mapush train --cfg job prints them all; mapush list)."
+
+
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 """Commands that take Hydra overrides (`key=value`) after their own options."""
 

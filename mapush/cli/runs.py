@@ -7,14 +7,14 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, number_list
+from mapush.cli.app import PASS_THROUGH, app, groups_epilog, number_list
 from mapush.errors import BadInput
 
 CFG_PARTS = ("job", "hydra", "all")
 """What `--cfg` prints, as Hydra apps do: the composed config, Hydra's own node, or both."""
 
 
-@app.command(context_settings=PASS_THROUGH)
+@app.command(context_settings=PASS_THROUGH, epilog=groups_epilog())
 def train(
     ctx: typer.Context,
     resume: Path | None = typer.Option(None, "--resume", help="Continue this cut run from its last checkpoint."),
@@ -27,6 +27,7 @@ def train(
     from mapush.viz.preflight import prepare_training_video
 
     overrides = list(ctx.args)
+    _refuse_multirun(overrides)
     if show is not None:
         if show not in CFG_PARTS:
             raise BadInput(f"--cfg {show!r} is not a part; valid: {', '.join(CFG_PARTS)}")
@@ -50,6 +51,29 @@ def train(
     from mapush import train as training
 
     training.train(cfg, overrides, command=" ".join(["mapush", *sys.argv[1:]]))
+
+
+def _refuse_multirun(overrides: list[str]) -> None:
+    """Hydra's multirun habits (`-m`, `--multirun`, `seed=0,1`) answered with the `mapush sweep` line to use."""
+    flags = [o for o in overrides if o in ("-m", "--multirun")]
+    swept = [o for o in overrides if "=" in o and _is_sweep(o)]
+    if flags or swept:
+        rest = [o for o in overrides if o not in flags]
+        raise BadInput(
+            f"mapush train runs one config, not a sweep ({' '.join(flags + swept)}); valid: one value per key, or "
+            f"`mapush sweep {' '.join(rest)}` (sweeps train, evaluate and resume every combination)"
+        )
+
+
+def _is_sweep(override: str) -> bool:
+    """Whether Hydra's grammar reads `override` as a sweep (`seed=0,1`, `seed=range(3)`); a parse error is left for
+    the composition to report."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    try:
+        return OverridesParser.create().parse_override(override).is_sweep_override()
+    except Exception:  # Hydra's grammar errors have several types; compose_config names the mistake
+        return False
 
 
 @app.command(name="eval", context_settings=PASS_THROUGH)

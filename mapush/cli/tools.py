@@ -74,7 +74,9 @@ def plan(
         if maps > 1:
             t = planning.timing(cfg, seed, maps, planner)
             print(
-                f"{t['maps']} maps: median {1000 * t['median_s']:.1f} ms, max {1000 * t['max_s']:.1f} ms, "
+                f"{t['maps']} maps: median {1000 * t['median_s']:.1f} ms, max {1000 * t['max_s']:.1f} ms; "
+                f"validity checks median {t['median_checks']:.0f}, max {t['max_checks']} "
+                f"(budget {cfg['level']['planner']['max_checks']}); stopped by the clock {t['wall_clock_stops']}; "
                 f"solved {t['solved']}, valid {t['valid']}"
             )
             record["timing"] = t
@@ -142,3 +144,18 @@ def plot(
     if out is None:
         out = run_dirs[0] / "curves.png" if len(run_dirs) == 1 else Path("curves.png")
     print(plot_runs(run_dirs, out, smooth))
+
+
+@app.command(name="list")
+def list_choices() -> None:
+    """List what a config can choose (config groups and their options), the trusted code and the shipped policies."""
+    from mapush.config import GROUPS, group_options
+    from mapush.rundir import shipped_names
+    from mapush.trust import trusted_modules
+
+    for group in (*GROUPS, "method", "experiment", "launcher"):  # the last three: `mapush sweep`'s groups
+        print(f"{group + ':':<12}{', '.join(group_options(group))}")
+    print(
+        f"{'shipped:':<12}{', '.join(shipped_names())}   (mapush eval shipped:NAME, mapush.load_policy('shipped:NAME'))"
+    )
+    print(f"{'trusted:':<12}{', '.join(trusted_modules())}   (more with mapush --trust MODULE)")

@@ -7,7 +7,6 @@ by the timeout (paper IV-B-1). Seeds give the mean +- std.
 
 from __future__ import annotations
 
-import json
 import re
 import shutil
 import sys
@@ -16,9 +15,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from mapush.atomic import locked, remove_leftovers, write_json
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.envs.core import exception_names
 from mapush.envs.low import TRACKING_ERRORS
+from mapush.eval.numerics import machine_record
 from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
@@ -42,7 +43,16 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
     for recorder in recorders:
         recorder.watch(watched, env.frame_dt, f"seed {seed}", from_start=True)
         env.recorders.append(recorder)
-    return first_episodes(env, vec, policy, seed)
+    outcomes = first_episodes(env, vec, policy, seed)
+    planner = getattr(env, "planner", None)
+    if planner is not None and planner.wall_clock_stops:  # plans cut by seconds, not work: machine-dependent
+        outcomes["planner_wall_clock_stops"] = planner.wall_clock_stops
+        print(
+            f"warning: seed {seed}: {planner.wall_clock_stops} plan(s) stopped by level.planner.time_limit_s before "
+            "level.planner.max_checks; these episodes may differ on another machine",
+            file=sys.stderr,
+        )
+    return outcomes
 
 
 def first_episodes(env, vec, policy, seed: int) -> dict:
@@ -90,6 +100,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
         "planner_failure_rate": planner_failure.float().mean().item(),
         "completion_time_s": completion_s.mean().item(),
         "completion_time": (completion_s / timeout_s).mean().item(),
+        "completion_time_episode_std": (completion_s / timeout_s).std(correction=0).item(),
         "timeout_s": timeout_s,
     }
 
@@ -124,14 +135,16 @@ def evaluate(
     exit_on_sigterm()
     created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
+    out = out_dir / f"eval{_suffix(name)}.json"
     try:
-        per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
+        with locked(out_dir):  # a second evaluation into this dir waits: its files are never written twice at once
+            remove_leftovers(out_dir)  # temp files of evaluations that were killed
+            per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
+            write_json(out, summarize(cfg, str(checkpoint), episodes, seeds, per_seed))
     except BaseException:
         if created:  # a refused evaluation (another agent count, a bad video setting) leaves nothing behind
             shutil.rmtree(out_dir, ignore_errors=True)
         raise
-    out = out_dir / f"eval{_suffix(name)}.json"
-    out.write_text(json.dumps(summarize(cfg, str(checkpoint), episodes, seeds, per_seed), indent=2) + "\n")
     return out
 
 
@@ -188,6 +201,7 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
         "episodes": episodes,
         "seeds": seeds,
         "per_seed": per_seed,
+        "machine": machine_record(),  # whether a reproduction can expect these bits (docs/reproducibility.md)
     }
     lowlevel, level = cfg.get("lowlevel"), cfg.get("level", {}).get("name")
     walker = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) if lowlevel else None
@@ -207,7 +221,7 @@ def _eval_recorders(cfg: dict, episodes_path: Path, live: bool) -> list:
     exceptions = exception_names(cfg)
     recorders: list = []
     if int(cfg["log"]["eval_episodes"]) > 0:
-        recorders.append(EpisodeRecorder(episodes_path, layout, terms, exceptions))
+        recorders.append(EpisodeRecorder(episodes_path, layout, terms, exceptions, whole=True))
     if live:
         view = LiveView(layout, terms, exceptions, int(cfg["log"]["live_port"]))
         print(f"live view: open Foxglove on ws://127.0.0.1:{view.port}", file=sys.stderr, flush=True)

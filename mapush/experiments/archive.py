@@ -13,10 +13,10 @@ evaluation time); checkpoints and logs stay under `runs/`, which git ignores and
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
+from mapush.atomic import write_text
 from mapush.config import compose_config
 from mapush.errors import BadInput
 from mapush.experiments.pipeline import (
@@ -69,9 +69,7 @@ def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
             unchanged += 1
             continue
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(".tmp")
-        tmp.write_text(text)
-        os.replace(tmp, target)
+        write_text(target, text)
         written.append(target)
     return written, unchanged
 

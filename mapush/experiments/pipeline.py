@@ -28,6 +28,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 
 from mapush import train as training
+from mapush.atomic import write_json
 from mapush.config import apply_overrides, compose_config, group_file, group_options, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
@@ -267,9 +268,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
 
 def _write_json(path: Path, data: dict) -> dict:
     """Write `data` (a job's result, a stage's curve) to `path` atomically; returns it."""
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    os.replace(tmp, path)
+    write_json(path, data)
     return data
 
 

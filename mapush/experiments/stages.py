@@ -24,6 +24,7 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
+from mapush.atomic import write_yaml
 from mapush.config import compose_config, load_run_config, sim_threads, to_plain
 from mapush.logging.mcap_files import training_scalars
 from mapush.logging.metrics import CPU_TAG, THREADS_TAG
@@ -52,6 +53,7 @@ UNSET_LATER_KEYS = {
     "lowlevel.randomize": None,
     "sim.robot_contacts": True,
     "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (T-block, cylinder, OCB cuboid)
+    "level.planner.max_checks": 100000,  # the planner's work budget; plans before it ended on first solutions too
 }
 """Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
 stays out of the identity (and so does a parent it leaves empty), so the stages trained before it existed keep
@@ -191,7 +193,7 @@ def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:
     """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run; `origin`: where
     a run made elsewhere came from (`adopted_from`, `trained_as_run`)."""
     Path(directory).mkdir(parents=True, exist_ok=True)
-    OmegaConf.save(OmegaConf.create({"identity": key, "config": cfg, **origin}), Path(directory) / IDENTITY_FILE)
+    write_yaml(Path(directory) / IDENTITY_FILE, {"identity": key, "config": cfg, **origin})
 
 
 def copy_run(run_dir: Path, target: Path) -> None:

@@ -8,9 +8,13 @@ cut ones. A job that fails writes `failed.txt` and lets the others run; the fail
 
 from __future__ import annotations
 
+import functools
 import json
 import os
+import signal
 import sys
+import threading
+import time
 import traceback
 from pathlib import Path
 
@@ -63,19 +67,52 @@ if not OmegaConf.has_resolver("cores"):
     OmegaConf.register_new_resolver("cores", lambda: os.cpu_count() or 1)
 
 
+SWEEP_PID = "MAPUSH_SWEEP_PID"
+"""The local sweep's process id, for its worker processes (`_stop_with_the_sweep`)."""
+GRACE_S = 60.0
+"""Seconds a worker whose sweep is gone has to close its job's logs before it exits anyway."""
+
+
 @hydra.main(config_path=str(CONF_DIR), config_name="sweep", version_base="1.3")
 def job(cfg: DictConfig) -> str:
     """One sweep job in its Hydra output dir; never raises, so that a failure leaves the other jobs running."""
     job_dir = Path(HydraConfig.get().runtime.output_dir)
     (job_dir / FAILED).unlink(missing_ok=True)
+    between_jobs = _stop_with_the_sweep()
+    between_jobs.clear()
     try:
         run_job(cfg, job_dir, job_threads(cfg))
         return "ok"
-    except BaseException as err:  # the job reports and returns; KeyboardInterrupt still stops the sweep
+    except BaseException as err:  # the job reports and returns; an interrupt or a stop still ends the process
         (job_dir / FAILED).write_text("".join(traceback.format_exception(err)))
-        if isinstance(err, KeyboardInterrupt):
+        if isinstance(err, (KeyboardInterrupt, SystemExit)):
             raise
         return f"failed: {err}"
+    finally:
+        between_jobs.set()
+
+
+@functools.cache
+def _stop_with_the_sweep() -> threading.Event:
+    """In a local sweep's worker process: once the sweep that started it is gone (killed, even by SIGKILL), stop
+    the running job as SIGTERM does (logs closed, checkpoints kept, its stage lock released) and exit, so that a
+    killed sweep leaves no process behind. Cluster jobs (SLURM, Ray) are not the sweep's children and go on.
+    Returns the event a job clears while it runs (made here, in the worker: a lock cannot travel to it)."""
+    between_jobs = threading.Event()
+    sweep = int(os.environ.get(SWEEP_PID, "0") or 0)
+    if not sweep or os.getpid() == sweep or os.getppid() != sweep:
+        return between_jobs
+
+    def watch() -> None:
+        while os.getppid() == sweep:
+            time.sleep(1.0)
+        if not between_jobs.is_set():
+            os.kill(os.getpid(), signal.SIGTERM)
+            between_jobs.wait(GRACE_S)
+        os._exit(143)
+
+    threading.Thread(target=watch, name="stop-with-the-sweep", daemon=True).start()
+    return between_jobs
 
 
 def job_threads(cfg: DictConfig) -> int:
@@ -103,6 +140,7 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     launches: group names (method, experiment, launcher), the budget, and that each job's stages compose (tasks,
     agent counts, stage overrides).
     """
+    overrides = [_as_axis(o) for o in overrides]
     stage = [o for o in overrides if not _is_sweep_key(o)]
     overrides = [o for o in overrides if _is_sweep_key(o)]
     if stage:
@@ -129,6 +167,15 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
             full.append(f"{key}={','.join(str(v) for v in values)}")
     _check_jobs(full)
     return full
+
+
+AXIS_ALIASES = {"task.num_agents": "agents"}
+"""Stage keys that a sweep takes as its own axis (`task.num_agents=1,2,3` sweeps `agents`)."""
+
+
+def _as_axis(override: str) -> str:
+    key, sep, value = override.partition("=")
+    return f"{AXIS_ALIASES[key]}={value}" if sep and key in AXIS_ALIASES else override
 
 
 def _is_sweep_key(override: str) -> bool:
@@ -278,6 +325,7 @@ def _estimate_line(to_train: list[dict]) -> str:
 def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:
     """Launch the multirun; returns the sweep dir, the finished job dirs and the failed job dirs."""
     full = sweep_overrides(overrides)
+    os.environ[SWEEP_PID] = str(os.getpid())  # the workers it starts exit with it
     argv = sys.argv
     sys.argv = [argv[0], "--multirun", *full]
     try:

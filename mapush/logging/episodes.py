@@ -18,8 +18,11 @@ most the episodes in progress. The file is created with the first finished episo
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import os
+import shutil
 import time
 from pathlib import Path
 
@@ -31,7 +34,11 @@ from foxglove.messages import Log, LogLevel
 
 import foxglove
 from foxglove import Channel, Context, Schema
+from mapush.atomic import temp_path
 from mapush.logging.scene import timestamp
+
+FULL_BYTES = 64 * 1024
+"""Free bytes under which a failed write is taken for a full disk."""
 
 CHUNK_BYTES = 256 * 1024  # small chunks: what a kill leaves is recoverable up to the last flush (libraries.md 3.5)
 EPISODE_GAP_NS = 1_000_000_000
@@ -154,8 +161,14 @@ class EpisodeRecorder:
     it records the next episode to begin after every N env steps.
     """
 
-    def __init__(self, path: Path, layout, term_names: list[str], exception_names: tuple[str, ...]):
+    def __init__(
+        self, path: Path, layout, term_names: list[str], exception_names: tuple[str, ...], whole: bool = False
+    ):
         self.path = Path(path)
+        # whole: written under a temp name and renamed at `close` (an evaluation's file is never seen cut, and a
+        # cut one never replaces the last good one); else at its name, flushed per episode (a killed training's
+        # file is recovered in place by `mapush logs recover` and by resume)
+        self.partial = temp_path(self.path) if whole else self.path
         self.layout, self.term_names, self.exception_names = layout, term_names, exception_names
         self.context: Context | None = None
         self.writer = None
@@ -193,6 +206,23 @@ class EpisodeRecorder:
             self.frames.clear()
 
     def _write_episode(self, j: int) -> None:
+        try:
+            self._log_episode(j)
+        except RuntimeError as err:  # the MCAP writer's I/O errors come without their cause
+            self._failed(err)
+
+    def _failed(self, err: RuntimeError) -> None:
+        """Drop the writer that failed (a whole file's temp file with it) and raise the OSError behind it."""
+        writer, self.writer = self.writer, None
+        with contextlib.suppress(RuntimeError):  # closed here, not by its finalizer, which would print the error
+            writer.close()
+        if self.partial != self.path:
+            self.partial.unlink(missing_ok=True)
+        full = shutil.disk_usage(self.partial.parent).free < FULL_BYTES
+        code = errno.ENOSPC if full else errno.EIO
+        raise OSError(code, os.strerror(code), str(self.path)) from err
+
+    def _log_episode(self, j: int) -> None:
         rows = [_row(frame, j, self.exception_names) for frame in self.frames[self.start[j] :]]
         if self.writer is None:
             self._open()
@@ -210,14 +240,21 @@ class EpisodeRecorder:
         self.context = Context()
         self.channels = EpisodeChannels(self.context, self.layout, self.term_names)
         options = MCAPWriteOptions(compression=MCAPCompression.Zstd, chunk_size=CHUNK_BYTES, compression_threads=0)
-        self.writer = foxglove.open_mcap(self.path, allow_overwrite=True, context=self.context, writer_options=options)
+        self.writer = foxglove.open_mcap(
+            self.partial, allow_overwrite=True, context=self.context, writer_options=options
+        )
         self.writer.write_metadata("mapush", {"num_agents": str(self.layout.num_agents), "pid": str(os.getpid())})
 
     def close(self) -> None:
         """Finish the file (summary and indexes); episodes still running are dropped."""
         if self.writer is not None:
-            self.writer.close()
+            try:
+                self.writer.close()
+            except RuntimeError as err:
+                self._failed(err)
             self.writer = None
+            if self.partial != self.path:
+                os.replace(self.partial, self.path)
 
 
 class LiveView:

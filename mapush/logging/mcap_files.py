@@ -8,7 +8,6 @@ indexed file; the other readers here fall back to the same streaming when the in
 from __future__ import annotations
 
 import json
-import os
 import signal
 import sys
 from collections.abc import Iterator
@@ -21,6 +20,7 @@ from mcap.records import Attachment, Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+from mapush.atomic import replacing
 from mapush.errors import BadInput
 
 
@@ -114,8 +114,7 @@ def recover(source: Path, target: Path) -> dict:
     if not contents.messages and not contents.metadata and not contents.attachments:
         raise BadInput(f"{str(source)!r} holds no complete message, metadata or attachment; nothing to recover")
     target = Path(target)
-    tmp = target.with_name(target.name + ".tmp")
-    with open(tmp, "wb") as f:
+    with replacing(target) as tmp, open(tmp, "wb") as f:
         writer = Writer(f, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
         writer.start(profile="", library="mapush recover")
         schema_ids = {
@@ -133,7 +132,6 @@ def recover(source: Path, target: Path) -> dict:
         for a in contents.attachments:
             writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
         writer.finish()
-    os.replace(tmp, target)
     return {"messages": len(contents.messages), "complete_source": contents.complete, "file": str(target)}
 
 

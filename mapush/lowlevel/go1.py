@@ -87,7 +87,15 @@ def locomotion_policy_file(path: str | Path | None) -> Path:
 
 def load_locomotion_policy(path: str | Path | None):
     """The TorchScript locomotion policy at `path` (None: the shipped one); BadInput when there is none."""
-    policy = torch.jit.load(str(locomotion_policy_file(path)), map_location="cpu")
+    target = locomotion_policy_file(path)
+    try:
+        policy = torch.jit.load(str(target), map_location="cpu")
+    except (RuntimeError, ValueError) as err:  # not a TorchScript archive
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise BadInput(
+            f"lowlevel.policy={str(target)!r} is not a TorchScript policy ({first}); valid: a policy.pt of a "
+            "level=low run"
+        ) from None
     policy.eval()
     return policy
 
@@ -99,8 +107,8 @@ class Go1:
 
     @staticmethod
     def check(cfg: dict) -> None:
-        """BadInput unless the config's locomotion policy exists (checked before anything is built)."""
-        locomotion_policy_file(cfg["policy"])
+        """BadInput unless the config's locomotion policy exists and loads (checked before anything is built)."""
+        load_locomotion_policy(cfg["policy"])
 
     @staticmethod
     def policy_fingerprint(cfg: dict) -> dict:

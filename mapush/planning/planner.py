@@ -5,6 +5,11 @@ disc, so any heading is safe) plus a margin, and the room's walls by the same am
 geometric OMPL planner can be named in `planner.name`. The simplified path is checked against the un-inflated
 geometry (obstacles grown by the object radius only) at 2 cm steps and resampled to the waypoints the high level
 consumes. An unreachable goal gives `PlanResult(solved=False)`, which evaluation counts as a planner failure.
+
+A plan ends on work done, never on seconds, so that a seeded evaluation plans the same paths on a fast machine and
+a slow or loaded one: the planner stops at its first solution (RRTConnect) or after `max_checks` state validity
+checks, and simplification runs to its fixed point. `time_limit_s` stays as a safety net only; a plan it stops
+depends on the machine, so it is counted (`ObjectPlanner.wall_clock_stops`) and reported by evaluation.
 """
 
 from __future__ import annotations
@@ -52,7 +57,8 @@ class ObjectPlanner:
     """Plans object paths among rectangular obstacles in a square room (one instance per process; reusable).
 
     Args:
-        planner_cfg: `name`, `time_limit_s`, `range_m`, `margin_m`, `resolution_m`, `simplify`.
+        planner_cfg: `name`, `max_checks` (the work budget), `time_limit_s` (a wall-clock safety net), `range_m`,
+            `margin_m`, `resolution_m`, `simplify`.
         arena_size: room side, m (the room is centred on the origin).
         object_radius: circumscribed radius of the object's footprint, m.
         seed: seeds OMPL's process-wide RNG seed generator, so that a sequence of plans repeats (the planner's
@@ -88,9 +94,12 @@ class ObjectPlanner:
             self.planner.setRange(planner_cfg["range_m"])
         self.setup.setPlanner(self.planner)
         self._rects: list[tuple[float, float, float, float, float, float]] = []
+        self.checks = 0  # state validity checks in the current plan: the planner's work
+        self.wall_clock_stops = 0  # plans the safety net stopped before the work budget ran out
 
     def _is_valid(self, state) -> bool:
         """Outside every inflated obstacle (pure Python: OMPL calls this thousands of times per plan)."""
+        self.checks += 1
         x, y = state[0], state[1]
         limit = self.inflate
         for cx, cy, c, s, hx, hy in self._rects:
@@ -114,11 +123,17 @@ class ObjectPlanner:
         if not (self._is_valid(s) and self._is_valid(g)):
             return PlanResult(None, False, False, time.perf_counter() - began, 0.0)
         self.setup.setStartAndGoalStates(s, g, 0.05)
-        self.setup.solve(float(self.cfg["time_limit_s"]))
+        self.checks = 0
+        budget = int(self.cfg["max_checks"])
+        work_done = ob.PlannerTerminationCondition(lambda: self.checks >= budget)
+        safety_net = ob.timedPlannerTerminationCondition(float(self.cfg["time_limit_s"]))
+        self.setup.solve(ob.plannerOrTerminationCondition(work_done, safety_net))
+        if self.checks < budget and time.perf_counter() - began >= float(self.cfg["time_limit_s"]):
+            self.wall_clock_stops += 1
         if not self.setup.haveExactSolutionPath():  # an approximate solution is a failure
             return PlanResult(None, False, False, time.perf_counter() - began, 0.0)
         if self.cfg["simplify"]:
-            self.setup.simplifySolution()
+            self.setup.simplifySolution()  # no duration: simplify until nothing changes (work, not time)
         solution = self.setup.getSolutionPath()
         raw = np.array([[solution.getState(i)[0], solution.getState(i)[1]] for i in range(solution.getStateCount())])
         elapsed = time.perf_counter() - began

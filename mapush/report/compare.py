@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from mapush.atomic import write_json, write_text
 from mapush.errors import BadInput
 from mapush.eval.rollout import evaluate, overrides_name
 
@@ -64,6 +65,6 @@ def write_comparison(rows: list[dict], overrides: list[str], out: Path) -> str:
     """`out`.md and `out`.json from the rows; returns the Markdown."""
     out.parent.mkdir(parents=True, exist_ok=True)
     table = markdown(rows, overrides)
-    out.with_suffix(".md").write_text(table)
-    out.with_suffix(".json").write_text(json.dumps({"overrides": overrides, "rows": rows}, indent=2) + "\n")
+    write_text(out.with_suffix(".md"), table)
+    write_json(out.with_suffix(".json"), {"overrides": overrides, "rows": rows})
     return table

@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 from omegaconf import OmegaConf
 
+from mapush.atomic import write_json, write_text
 from mapush.config import group_file
 from mapush.experiments.archive import load_results, made_otherwise
 from mapush.experiments.pipeline import concerns
@@ -445,10 +446,10 @@ def write_tables(
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
             others = [r for r in results if r["table"] != kind and r["variant"] == variant]
             table.cost["after"] = cost_after(behind, others, table.cost["cores"])
-            (out / f"{table.name}.md").write_text(markdown(table))
-            (out / f"{table.name}.tex").write_text(latex(table))
-            (out / f"{table.name}.csv").write_text(csv_text(table))
-            (out / f"{table.name}.json").write_text(json.dumps(sidecar(table), indent=2) + "\n")
+            write_text(out / f"{table.name}.md", markdown(table))
+            write_text(out / f"{table.name}.tex", latex(table))
+            write_text(out / f"{table.name}.csv", csv_text(table))
+            write_json(out / f"{table.name}.json", sidecar(table))
             if kind == "scale":
                 plots.scale_plot(table, out / f"{table.name}.png")
             title = f"{table.title.split(':')[0]}: learning curves, evaluated checkpoints"

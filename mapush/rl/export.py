@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import os
 import warnings
 from pathlib import Path
 
 import torch
+
+from mapush.atomic import replacing
 
 ONNX_OPSET = 18
 
@@ -24,8 +25,7 @@ def export_onnx(actor: torch.nn.Module, obs_dim: int, path: Path) -> Path:
     `actor` is an exportable rsl-rl MLP with its observation normalizer (`MLPModel.as_onnx()` or `.as_jit()`).
     """
     path = Path(path)
-    tmp = path.with_name(f"{path.name}.tmp")
-    with _quiet_exporter(), _replacing(tmp, path):
+    with _quiet_exporter(), replacing(path) as tmp:
         torch.onnx.export(
             actor.to("cpu").eval(),
             (torch.zeros(1, obs_dim),),
@@ -45,20 +45,9 @@ def export_torchscript(actor: torch.nn.Module, path: Path) -> Path:
     """Write `actor` (an rsl-rl MLP's `.as_jit()`) to `path` as TorchScript, atomically: `policy.pt` marks a
     finished run, so it never exists half-written."""
     path = Path(path)
-    tmp = path.with_name(f"{path.name}.tmp")
-    with _replacing(tmp, path):
+    with replacing(path) as tmp:
         torch.jit.script(actor.to("cpu").eval()).save(str(tmp))
     return path
-
-
-@contextlib.contextmanager
-def _replacing(tmp: Path, path: Path):
-    """Rename `tmp` onto `path` when the block that writes `tmp` succeeds; remove `tmp` when it fails."""
-    try:
-        yield
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager

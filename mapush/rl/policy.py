@@ -18,6 +18,7 @@ from tensordict import TensorDict
 from mapush.config import load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.rundir import resolve_checkpoint
+from mapush.trust import check_class_names
 
 
 class Policy(NamedTuple):
@@ -56,6 +57,7 @@ def actor_shape(checkpoint: dict) -> tuple[int, int]:
 def actor_from_checkpoint(algo_cfg: dict, checkpoint: dict) -> torch.nn.Module:
     """The deterministic actor (rsl-rl's exportable MLP, normalizer included) of a checkpoint, in eval mode."""
     obs_dim, action_dim = actor_shape(checkpoint)
+    check_class_names("algo.actor", algo_cfg["actor"])  # a run dir's config is data: no code from elsewhere
     actor_class, actor_cfg = resolve_class(algo_cfg["actor"])
     group = "policy"
     obs = TensorDict({group: torch.zeros(1, obs_dim)}, batch_size=[1])

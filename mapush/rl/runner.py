@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import os
 from pathlib import Path
 
 import numpy as np
 import torch
 from rsl_rl.runners import OnPolicyRunner
 
+from mapush.atomic import replacing
 from mapush.config import sim_threads
 from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
@@ -62,9 +62,8 @@ class MapushRunner(OnPolicyRunner):
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
         saved["infos"] = {**(infos or {}), SCORE_KEY: score}
-        tmp = f"{path}.tmp"
-        torch.save(saved, tmp)
-        os.replace(tmp, path)
+        with replacing(Path(path)) as tmp:
+            torch.save(saved, tmp)
         self.logger.save_model(path, self.current_learning_iteration)
         self.retention.saved(Path(path), score)
 

@@ -1,0 +1,40 @@
+"""Configs of your own, outside the package: a task file found through `hydra.searchpath`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from omegaconf import OmegaConf
+from test_cli_bad_input import assert_bad_input
+
+from mapush.config import CONF_DIR
+
+
+def _my_task(root: Path) -> Path:
+    """`<root>/task/long_box.yaml`: the cuboid, 2 m long, named long_box."""
+    task = OmegaConf.load(CONF_DIR / "task" / "cuboid.yaml")
+    task.name = "long_box"
+    task.object.parts[0].size[0] = 2.0
+    (root / "task").mkdir(parents=True)
+    OmegaConf.save(task, root / "task" / "long_box.yaml")
+    return root
+
+
+def test_a_task_from_a_directory_of_yours_trains_and_evaluates(cli, tmp_path):
+    mine = _my_task(tmp_path / "my_configs")
+    runs = tmp_path / "runs"
+    proc = cli("train", f"hydra.searchpath=[file://{mine}]", "task=long_box", "debug=smoke", f"train.run_root={runs}")
+    assert proc.returncode == 0, proc.stderr
+    run_dir = Path(proc.stdout.strip().splitlines()[-1])
+    assert run_dir.parent == runs / "mid" / "long_box"
+    assert OmegaConf.load(run_dir / "config.yaml").task.object.parts[0].size[0] == 2.0
+    evaluated = cli("eval", run_dir, "--episodes", "1", "--seeds", "0")  # the run dir holds the task: no searchpath
+    assert evaluated.returncode == 0, evaluated.stderr
+    assert json.loads((run_dir / "eval.json").read_text())["task"] == "long_box"
+
+
+def test_without_the_searchpath_the_task_is_unknown_and_the_message_says_how(cli, tmp_path):
+    _my_task(tmp_path / "my_configs")
+    proc = cli("train", "task=long_box", "debug=smoke", f"train.run_root={tmp_path / 'runs'}")
+    assert_bad_input(proc, "unknown task 'long_box'", "hydra.searchpath", "cuboid")
