@@ -7,6 +7,7 @@ term (the mean episode sum logged as `Reward/<term>`), against the PPO iteration
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -79,13 +80,17 @@ def plot_runs(run_dirs: list[Path], out: Path, smooth: int = 5) -> Path:
     cols = min(3, len(panels))
     rows = -(-len(panels) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.8 * cols, 3.3 * rows), squeeze=False)
+    short: set[str] = set()
     for ax, tag in zip(axes.flat, panels, strict=False):
         for label, runs in groups.items():
             series = [scalars[r][tag] for r in runs if scalars[r].get(tag)]
             if not series:
                 continue
             it, mean, std = mean_std(series, smooth)
-            (line,) = ax.plot(it, mean, label=f"{label} (n={len(series)})", linewidth=1.4)
+            if smooth > 1 and len(it) < smooth:
+                short.add(f"{label} has {len(it)} iterations, fewer than --smooth {smooth}: drawn unsmoothed")
+            marker = "o" if len(it) < 3 else None  # a line of one or two points would not show
+            (line,) = ax.plot(it, mean, label=f"{label} (n={len(series)})", linewidth=1.4, marker=marker)
             if len(series) > 1:
                 ax.fill_between(it, mean - std, mean + std, color=line.get_color(), alpha=0.2)
         ax.set_title(tag.split("/", 1)[1].replace("_", " "))
@@ -97,6 +102,8 @@ def plot_runs(run_dirs: list[Path], out: Path, smooth: int = 5) -> Path:
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 3), frameon=False)
     fig.tight_layout(rect=(0, 0.04 + 0.03 * ((len(labels) - 1) // 3), 1, 1))
     out.parent.mkdir(parents=True, exist_ok=True)
+    for warning in sorted(short):
+        print(f"mapush plot: warning: {warning}", file=sys.stderr)
     with replacing(out) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -98,5 +99,16 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     export_onnx(policy.actor, policy.obs_dim, dest / ONNX_FILE)
     export_torchscript(policy.actor, dest / POLICY_FILE)
     meta = json.loads((dest / "meta.json").read_text())
+    meta["command"] = without_machine_paths(meta.get("command", ""))
     meta["shipped_from"] = {"run": run_dir.name, "checkpoint": last.name}
     write_json(dest / "meta.json", meta)
+
+
+ABSOLUTE_PATH = re.compile(r"(?<![\w.~])/(?:[^\s/=,\]\[]+/)+(?=[^\s/=,\]\[]+)")
+"""The directories of an absolute path in a command line (what follows the last / is kept)."""
+
+
+def without_machine_paths(command: str) -> str:
+    """A shipped run's command without the directories of the machine it was made on (`/work/main/runs/x/mid_s0`
+    becomes `.../mid_s0`): a shipped package names no one's file system."""
+    return ABSOLUTE_PATH.sub(".../", command)

@@ -9,9 +9,12 @@ import onnxruntime as ort
 import pytest
 import torch
 
+from mapush.config import load_run_config, to_plain
+from mapush.envs.mid import MidPushEnv
 from mapush.envs.observations import local_dim
 from mapush.lowlevel.go1 import PRETRAINED_RUN, PROPRIO_DIM
 from mapush.rl.runner import ONNX_FILE, POLICY_FILE
+from mapush.rundir import shipped_run
 
 
 def assert_same_actions(run_dir: Path, obs_dim: int) -> None:
@@ -38,3 +41,22 @@ def test_a_trained_run_exports_onnx_that_acts_as_its_torchscript_policy(smoke_ru
 @pytest.mark.filterwarnings("ignore:`torch.jit.load` is deprecated:DeprecationWarning")
 def test_the_shipped_go1_policy_carries_onnx_that_acts_as_its_torchscript_policy():
     assert_same_actions(PRETRAINED_RUN, obs_dim=PROPRIO_DIM)  # the Go1's proprioception
+
+
+def test_the_mid_level_onnx_contract_clip_and_scale_is_the_env_s_command():
+    """docs/export.md: clip the ONNX output to [-1, 1] and multiply by level.action_scale, and you have the command
+    the env sends to the robots."""
+    run = shipped_run("cuboid/mid")
+    cfg = to_plain(load_run_config(run))
+    env = MidPushEnv(cfg, num_envs=4)
+    obs = env.observations()["policy"]  # (4, 2, d)
+    session = ort.InferenceSession(str(run / ONNX_FILE), providers=["CPUExecutionProvider"])
+    (raw,) = session.run(["actions"], {"obs": obs.reshape(-1, obs.shape[-1]).numpy()})
+    raw = raw * 3.0  # some beyond [-1, 1], so that the clip is tried
+    assert (np.abs(raw) > 1).any() and (np.abs(raw) < 1).any()
+    sent = []
+    step = env.sim.step
+    env.sim.step = lambda commands: (sent.append(commands.clone()), step(commands))[1]
+    env.step(torch.from_numpy(raw).reshape(4, 2, 3))
+    expected = np.clip(raw, -1.0, 1.0) * np.array([0.5, 0.5, 0.5])  # docs/export.md, mid level
+    np.testing.assert_allclose(sent[0].reshape(-1, 3).numpy(), expected, rtol=1e-6, atol=1e-7)

@@ -622,3 +622,11 @@ def test_ctrl_c_saves_the_networks_and_prints_the_resume_command(tmp_path):
     saved = sorted(run_dir.glob("model_*.pt"), key=lambda p: int(p.stem.partition("_")[2]))
     assert len(saved) == 2 and saved[-1].name != "model_0.pt"
     assert summary(run_dir / "metrics.mcap")["complete"]
+
+
+def test_plot_of_a_run_shorter_than_its_smoothing_window_says_so(cli, smoke_run, tmp_path):
+    proc = cli("plot", smoke_run, "--out", tmp_path / "curves.png", "--smooth", "5")
+    assert proc.returncode == 0, proc.stderr
+    assert "fewer than --smooth 5: drawn unsmoothed" in proc.stderr
+    quiet = cli("plot", smoke_run, "--out", tmp_path / "curves1.png", "--smooth", "1")
+    assert "warning" not in quiet.stderr

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -14,6 +15,7 @@ from omegaconf import OmegaConf
 from mapush.eval.numerics import computes_alike
 from mapush.rl.policy import load_policy
 from mapush.rundir import PACKAGE, shipped_names, shipped_run
+from mapush.ship import without_machine_paths
 
 
 @pytest.fixture(scope="module")
@@ -113,3 +115,16 @@ def test_a_shipped_hierarchy_reproduces_its_recorded_evaluation(cli, name, tmp_p
         assert again["completion_time"] == pytest.approx(first["completion_time"], abs=1e-9)
     else:
         assert within_evaluation_noise(again, first), (again, first, result["machine"], recorded["machine"])
+
+
+def test_shipped_files_name_no_directory_of_the_machine_they_were_made_on():
+    for meta in PACKAGE.glob("**/meta.json"):
+        command = json.loads(meta.read_text()).get("command", "")
+        assert not re.search(r"(^|[\s=])/[^\s]*/", command), (meta, command)
+
+
+def test_machine_paths_leave_a_command_s_names_and_values():
+    command = "mapush train mid=/work/main/runs/x/mid_s0 task=cuboid train.init_from=/a/b/model_299.pt seed=0"
+    assert without_machine_paths(command) == (
+        "mapush train mid=.../mid_s0 task=cuboid train.init_from=.../model_299.pt seed=0"
+    )

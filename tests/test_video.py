@@ -105,6 +105,19 @@ def test_eval_video_stops_at_max_frames(cfg_for, fake_video, tmp_path):
     assert fake_video == {"eval_video.mp4": 5}
 
 
+def test_a_video_cut_before_its_episode_ends_says_where(cfg_for, fake_video, tmp_path, capsys):
+    cfg = cfg_for("debug=smoke", "log.video.max_frames=5")
+    recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
+    recorder.watch([0], 0.02, "seed", from_start=True)
+    run_episode(recorder, FakeEnv(), 5)  # ends on its 5th frame: whole, nothing to say
+    assert capsys.readouterr().err == ""
+    recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video_long.mp4")
+    recorder.watch([0], 0.02, "seed", from_start=True)
+    run_episode(recorder, FakeEnv(), 9)
+    recorder.close()
+    assert "stops at 0.1 s, before the episode ends (log.video.max_frames=5" in capsys.readouterr().err
+
+
 def test_training_video_records_the_next_episode_every_interval_named_by_iteration(cfg_for, fake_video, tmp_path):
     # 4 env steps per iteration, a video every iteration, env 0's episodes end at steps 3, 6, 9, 12, 15
     cfg = cfg_for("debug=smoke", "log.video_interval=1", "algo.num_steps_per_env=4")

@@ -41,10 +41,11 @@ if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
 fi
 # torch first and pinned, in the chosen build: an unpinned torch makes pip pull several GB of CUDA packages on Linux.
-# The CPU build comes from a local wheel when pip's own configuration has one (no download), else from CPU_INDEX.
+# The CPU build (version +cpu) comes from where pip's own configuration finds it (a local wheel, a mirror), else
+# from CPU_INDEX; its dependencies come from the usual index either way.
 if [ "$build" = cuda ]; then
   .venv/bin/python -m pip install -q ${PIP_EXTRA:-} "torch==$TORCH_VERSION"
-elif ! .venv/bin/python -m pip install -q --no-index ${PIP_EXTRA:-} "torch==$TORCH_VERSION+cpu" 2>/dev/null; then
+elif ! .venv/bin/python -m pip install -q ${PIP_EXTRA:-} "torch==$TORCH_VERSION+cpu" 2>/dev/null; then
   .venv/bin/python -m pip install -q --extra-index-url "$CPU_INDEX" ${PIP_EXTRA:-} "torch==$TORCH_VERSION+cpu"
 fi
 .venv/bin/python -m pip install -q ${PIP_EXTRA:-} -e ".[${EXTRAS:-test}]"

@@ -30,6 +30,8 @@ from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
 
 EPISODES = "episodes.mcap"
+PROGRESS_STEPS = 50
+"""Policy steps between two updates of the progress line."""
 
 
 def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorders: tuple = ()) -> dict:
@@ -68,9 +70,20 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     path = getattr(env, "path", None)  # the high levels: the first episodes' reference paths, before any reset
     reference = {"path_length_m": path_length(path).mean().item()} if path is not None else {}
     obs = vec.get_observations()
+    show = sys.stderr.isatty()  # a progress line on a terminal; logs and pipes get none
+    steps = 0
     with torch.inference_mode():
         while not finished.all():
             obs, _, _, _ = vec.step(policy(obs))
+            steps += 1
+            if show and steps % PROGRESS_STEPS == 0:
+                print(
+                    f"\rseed {seed}: {steps * env.dt:.0f} of {env.max_episode_length * env.dt:.0f} s simulated, "
+                    f"{int(finished.sum())}/{episodes} episodes ended",
+                    end="",
+                    file=sys.stderr,
+                    flush=True,
+                )
             end = vec.last_info["episode_end"]
             first = end["done"] & ~finished
             success |= end["success"] & first
@@ -83,6 +96,8 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
                 for name, errors in tracking.items():
                     errors[first] = end[name][first]
             finished |= end["done"]
+    if show:
+        print("\r\033[K", end="", file=sys.stderr, flush=True)  # clear the progress line
     timeout_s = env.max_episode_length * env.dt
     completion_s = torch.where(success, time_s, torch.full_like(time_s, timeout_s))
     low_level = {}

@@ -10,6 +10,7 @@ Call `mapush.viz.preflight.require_offscreen_gl()` before MuJoCo is imported: it
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -111,13 +112,13 @@ class VideoRecorder:
             self.state = WAITING  # the next episode to begin is recorded
         ended = bool(done[self.env_id])
         if self.state == RECORDING:
-            self._frame(env)
+            self._frame(env, ended)
             if ended or self.state != RECORDING:
                 self._end_episode()
         elif self.state == WAITING and ended:
             self.state = RECORDING
 
-    def _frame(self, env) -> None:
+    def _frame(self, env, ended: bool) -> None:
         if self.renderer is None:
             self.renderer = FrameRenderer(env, self.cfg)
         if self.writer is None:
@@ -126,8 +127,15 @@ class VideoRecorder:
             path.parent.mkdir(parents=True, exist_ok=True)
             self.writer = VideoWriter(path, self.renderer.width, self.renderer.height, self.fps, int(video["crf"]))
         self.writer.write(self.renderer.render(env, self.env_id))
-        if self.writer.frames >= self.max_frames:
-            self.state = IDLE  # the file is full: the rest of this episode is not recorded
+        if self.writer.frames >= self.max_frames and not ended:
+            self.state = IDLE  # the file is full: the rest of this episode is not recorded, and the user is told
+            print(
+                f"mapush: video {self.writer.path.name} stops at {self.max_frames / self.fps:.1f} s, before the "
+                f"episode ends (log.video.max_frames={self.max_frames}; raise it to record whole episodes)",
+                file=sys.stderr,
+            )
+        elif self.writer.frames >= self.max_frames:
+            self.state = IDLE
 
     def _end_episode(self) -> None:
         self.episodes += 1
