@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import torch
 
+from mapush.planning.geometry import polygon_gap, rectangles
+
 
 def diverged(env) -> torch.Tensor:
     """The simulation failed this step, or its state is no longer finite (the step sets `env.diverged`)."""
@@ -18,6 +20,18 @@ def robot_collision(env, distance_m: float) -> torch.Tensor:
     """Two robot centres closer than `distance_m`."""
     pair = env.state.robot_distance + torch.eye(env.num_agents) * 1e9
     return (pair < distance_m).flatten(1).any(-1)
+
+
+def robot_contact(env, tolerance_m: float) -> torch.Tensor:
+    """Two robots' footprints (`lowlevel.size`: length x width, at their poses) within `tolerance_m` of each
+    other: robots that touch. Unlike `robot_collision`'s centre distance (0.25 m, as the original's, which the
+    tracker's 0.28 m-wide footprint never reaches), this can happen to every low level."""
+    s = env.state
+    length, width = env.cfg["lowlevel"]["size"][:2]
+    boxes = rectangles(s.robot_xy, s.robot_yaw, length, width)  # (E, A, 4, 2)
+    gap = polygon_gap(boxes.unsqueeze(2), boxes.unsqueeze(1))  # (E, A, A): separating-axis gap, <= the distance
+    gap = gap + torch.eye(env.num_agents) * 1e9  # a robot does not touch itself
+    return (gap < tolerance_m).flatten(1).any(-1)
 
 
 def object_tilt(env, max_rad: float) -> torch.Tensor:
