@@ -23,7 +23,7 @@ CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().paren
 
 def physx_average(coefficients, other: float) -> list[float]:
     """The sliding friction of PhysX contacts between bodies of `coefficients` and one body of `other`: the average
-    of the two, PhysX's default combine mode, which the original ran (paper-and-original.md 2.1).
+    of the two, PhysX's default combine mode, which the original ran (docs/fidelity.md).
 
     MuJoCo takes the larger of a contact's two coefficients, so an object on a less frictional floor carries the
     averaged value itself (the task's `object.friction`). Rounded to 1e-9 so that 0.4 stays 0.4.
@@ -76,8 +76,8 @@ def _check_groups(overrides: list[str]) -> None:
         key, sep, value = override.lstrip("+~").partition("=")
         options = group_options(key, extra) if key in GROUPS else []
         if sep and key in GROUPS and value not in options and not (key == "debug" and value == "null"):
-            where = f" (in mapush and {', '.join(map(str, extra))})" if extra else " (add yours with hydra.searchpath)"
-            raise BadInput(f"unknown {key} {value!r}; valid{where}: {', '.join(options)}")
+            where = f"in mapush and {', '.join(map(str, extra))}" if extra else "add yours with hydra.searchpath"
+            raise BadInput(f"unknown {key} {value!r}; valid: {', '.join(options)} ({where})")
 
 
 def _unknown_key_message(base: DictConfig, full_key: str) -> str:

@@ -1,7 +1,7 @@
 """`mapush plan`: plan the object's path through one random long-horizon map (or many, for timing), and draw it.
 
 The map is the one evaluation would draw for that seed: start and goal areas of `level=high`, obstacles placed at
-random between them. JSON keys (architecture section 6): `start`, `goal`, `path` ([x, y] list), `obstacles`
+random between them. JSON keys (docs/design.md): `start`, `goal`, `path` ([x, y] list), `obstacles`
 (each the [x, y] corners of its true footprint), `planning_time_s`, `valid`; plus `solved`, `length_m`, `planner`.
 """
 

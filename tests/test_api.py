@@ -37,7 +37,10 @@ def test_make_env_and_load_policy_of_a_smoke_run_step_together(smoke_run):
 def test_make_env_of_an_unknown_task_is_the_cli_line():
     with pytest.raises(BadInput) as err:
         mapush.make_env(["task=nope"])
-    assert str(err.value) == "unknown task 'nope'; valid: cuboid, cylinder, ocb_cuboid, tblock"
+    assert (
+        str(err.value)
+        == "unknown task 'nope'; valid: cuboid, cylinder, ocb_cuboid, tblock (add yours with hydra.searchpath)"
+    )
 
 
 def test_make_env_checks_values_and_the_mid_level_before_building():

@@ -112,7 +112,7 @@ def _mid_weights(*overrides: str) -> dict[str, float]:
 
 
 def test_the_cylinder_weighs_its_mid_reward_as_the_original_checkpoints_did():
-    # paper-and-original.md 2.7: the stored cylinder checkpoints' target 50, collision -30, OCB 120, over 20000
+    # docs/fidelity.md: the stored cylinder checkpoints' target 50, collision -30, OCB 120, over 20000
     assert _mid_weights("task=cylinder") == pytest.approx(
         {"subgoal_progress": 50 / 20000, "agent_proximity": -30 / 20000, "ocb": 120 / 20000}
     )
@@ -128,7 +128,7 @@ def test_a_command_line_weight_overrides_the_tasks_own():
 
 @pytest.mark.parametrize(
     ("task", "effective"),
-    # paper-and-original.md 1.1 and 2.1: the original's object friction U[0.5, 0.6] (cuboid), U[0.6, 0.7] (T-block),
+    # docs/fidelity.md: the original's object friction U[0.5, 0.6] (cuboid), U[0.6, 0.7] (T-block),
     # U[0.3, 0.4] (cylinder) on a 0.1 floor; PhysX's default combine mode averages a contact's two coefficients
     [("cuboid", [0.3, 0.35]), ("tblock", [0.35, 0.4]), ("cylinder", [0.2, 0.25])],
 )

@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 from mapush.config import group_options
 from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
 from mapush.experiments.sweep import GRACE_S
-from mapush.logging.mcap_files import training_scalars
+from mapush.logging.mcap_files import summary, training_scalars
 from mapush.logging.metrics import THREADS_TAG
 from mapush.report import tables
 from mapush.rundir import find_runs
@@ -384,3 +384,17 @@ def test_a_sweep_over_the_robot_count_may_name_it_as_the_task_key(cli, tmp_path)
     by_key = _sweep(cli, tmp_path, "experiment=scale", "task.num_agents=range(1,4)", "--dry-run")
     assert by_key.returncode == 0, by_key.stderr
     assert by_key.stdout == by_axis.stdout and "agents=3" in by_key.stdout
+
+
+@pytest.mark.slow
+def test_two_identical_sweeps_at_once_leave_every_episode_file_readable(tmp_path):
+    """Stage training is locked and so is evaluation: the second sweep waits, and no file is written twice at once."""
+    cmd = [*MAPUSH, "sweep", *SMOKE, f"sweep_root={tmp_path / 'sweeps'}", "experiment=ocb_ablation"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    procs = [subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE) for _ in "ab"]
+    for proc in procs:
+        assert proc.wait(timeout=900) == 0, proc.stderr.read()
+    episode_files = list((tmp_path / "sweeps").glob("**/episodes*.mcap"))
+    assert len(episode_files) >= 4
+    assert all(summary(path)["complete"] for path in episode_files)
+    assert len(_results(tmp_path / "sweeps")) == 2

@@ -1,6 +1,6 @@
 """Throughput of any level: env, raw physics and training env-steps/s, where a PPO iteration's time goes, memory.
 
-One env-step is one 50 Hz control step of one env with all its robots (architecture section 7); a high-level
+One env-step is one 50 Hz control step of one env with all its robots (docs/performance.md); a high-level
 decision holds `level.decision_steps` of them. The raw figure steps the same `mujoco.batch` under the controls the
 env's own timed run applied, replayed without the env: the same physics work (robots walking, pushing, touching)
 with nothing around it, the limit on this machine. (Random controls would be cheaper physics than the env's: robots

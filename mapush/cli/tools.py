@@ -22,7 +22,7 @@ def bench(
     ),
     minutes: float = typer.Option(10.0, "--minutes", help="--learn: wall time of training."),
 ) -> None:
-    """Measure throughput and where an iteration's time goes (architecture section 7), or with --learn the
+    """Measure throughput and where an iteration's time goes (docs/performance.md), or with --learn the
     minutes of `mapush train` to a given evaluated success."""
     import json
 

@@ -8,7 +8,7 @@ each a list of named terms concatenated in order) and exception terms (`level.ex
 first that fires names the exception). A level is mostly its YAML file.
 
 One step: actions -> physics -> state -> exceptions and terminations -> rewards (before any reset) -> recorders ->
-episode outcomes -> reset finished envs -> observations (architecture section 3).
+episode outcomes -> reset finished envs -> observations (docs/design.md, "One environment step").
 """
 
 from __future__ import annotations

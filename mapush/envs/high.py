@@ -3,7 +3,7 @@
 One decision every `level.decision_steps` mid-level steps (0.5 s; the original: 20 ms). Success: the object
 within `success_distance` of the final target, 10+ m away through obstacles. Exceptions (`level.exceptions`) are
 penalized; those in `level.terminal_exceptions` also end the episode (by default not the contacts, as in the
-original's evaluation: paper-and-original.md 3.2).
+original's evaluation: docs/fidelity.md).
 
 The observation (`observations.high_observation`) is in the *target frame*: origin at the object, x toward the
 final target. Action: 2 numbers in [-1, 1]; the subgoal lies d = d_min + (a1 + 1) / 2 (d_max - d_min) (1.5-3 m,

@@ -1,4 +1,4 @@
-"""The low level: a Go1 learns to track (vx, vy, yaw rate) commands on flat ground (paper III-B; architecture 2).
+"""The low level: a Go1 learns to track (vx, vy, yaw rate) commands on flat ground (paper III-B; docs/design.md).
 
 E single-robot MuJoCo sims stepped together by `mujoco.batch`; no Python loop over envs. The policy acts at 50 Hz:
 its 12 actions are joint-angle offsets from the standing pose (times `lowlevel.action_scale`), which the model's PD

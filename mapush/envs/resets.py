@@ -1,4 +1,4 @@
-"""Episode start layouts, sampled for many envs at once (paper App. A; paper-and-original.md 2.3)."""
+"""Episode start layouts, sampled for many envs at once (paper App. A; docs/fidelity.md)."""
 
 from __future__ import annotations
 

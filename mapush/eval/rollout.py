@@ -1,4 +1,4 @@
-"""`mapush eval`: run deterministic episodes of a checkpoint and write `eval.json` (architecture section 6).
+"""`mapush eval`: run deterministic episodes of a checkpoint and write `eval.json` (docs/usage.md).
 
 Each seed runs `episodes` envs in parallel, one episode each (their first), as the original's "calculator" mode;
 S.R. is the fraction that succeed, C.T. the time to success with a failure counting as the timeout, normalized
@@ -200,7 +200,7 @@ def evaluate_quietly(cfg: dict, checkpoint: Path, episodes: int, seeds: list[int
 
 
 def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed: list[dict]) -> dict:
-    """The eval record (architecture section 6) of `policy`'s per-seed outcomes (`first_episodes`)."""
+    """The eval record (docs/usage.md) of `policy`'s per-seed outcomes (`first_episodes`)."""
     sr = np.array([r["success_rate"] for r in per_seed])
     result = {
         "checkpoint": policy,
@@ -223,7 +223,7 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
     if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
     # figures only some levels record, averaged over seeds: the high level's reference path length (how far it had
-    # to push), the low level's tracking errors and falls (architecture 6)
+    # to push), the low level's tracking errors and falls (docs/usage.md)
     for key in ("path_length_m", *TRACKING_ERRORS, "fall_rate"):
         if key in per_seed[0]:
             result[key] = float(np.mean([r[key] for r in per_seed]))

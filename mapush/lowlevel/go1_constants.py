@@ -3,7 +3,7 @@
 Sources (facts, not code): Unitree's Go1 URDF (`go1_description`) as reproduced in public Go1 tooling (link
 offsets, masses, centres of mass, principal inertias, joint ranges); Unitree's Go1 motor specification (23.7 N m
 hip and thigh, 35.55 N m knee after the 1.5x knee reduction). Links are primitive shapes; the inertias are the
-URDF's diagonals (its off-diagonal terms are under 2 % of them). Total mass 12.0 kg (paper-and-original.md 1.2:
+URDF's diagonals (its off-diagonal terms are under 2 % of them). Total mass 12.0 kg (docs/fidelity.md:
 11.3 kg of links in the original's URDF, the battery aside).
 """
 

@@ -1,6 +1,6 @@
 """The `tracker` low level: each robot is one rigid body moved in x, y and yaw by force-limited velocity actuators.
 
-It stands for "a locomotion controller that tracks velocity commands" (architecture section 2). Each actuator
+It stands for "a locomotion controller that tracks velocity commands" (docs/design.md). Each actuator
 applies F = gain * (v_cmd - v), clamped to the force limit; with gain = mass / lag the velocity follows the command
 as a first-order lag. The slide joints move along the world axes, so body-frame commands are rotated into the world
 frame before they become actuator targets. The robot floats at a fixed height: it cannot tilt or fall.

@@ -56,7 +56,7 @@ _BASIS = _natural_spline_basis(SPLINE_KNOTS, torch.linspace(0.0, 1.0, DENSE))
 
 
 def random_curved_paths(gen: torch.Generator, start: torch.Tensor, goal: torch.Tensor, noise: float, count: int):
-    """The paper's training paths (paper App. A; paper-and-original.md 3.6), `count` points each.
+    """The paper's training paths (paper App. A; docs/fidelity.md), `count` points each.
 
     A natural cubic spline through start S, Q1, M, Q2 and goal E at t = 0, 1/4, 1/2, 3/4, 1, where
     M = (S + E) / 2 + u1, Q1 = (S + M) / 2 + u2, Q2 = (M + E) / 2 + u3 and each u ~ U[-noise, noise]^2.

@@ -115,7 +115,7 @@ def add_object(world, object_cfg: dict) -> None:
 
     Each part's mass is given; MuJoCo derives the body's centre of mass and inertia from the parts' geometry
     (solid, uniform density), unlike the original URDFs, whose inertias are far below the geometric values
-    (paper-and-original.md 1.1: e.g. the cylinder's Izz is 0.0417 there, 11.25 kg m^2 for a solid cylinder).
+    (docs/fidelity.md: e.g. the cylinder's Izz is 0.0417 there, 11.25 kg m^2 for a solid cylinder).
     """
     height = max(part_height(p) for p in object_cfg["parts"])
     sx, sy = object_cfg["start_xy"]

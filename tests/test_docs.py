@@ -1,0 +1,129 @@
+"""The docs live in the repo and say each thing once: short entry pages, no citation of a document outside the
+repo, links and backticked paths that resolve, and dated notes that say whether they were adopted."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+THIS = Path(__file__).resolve().relative_to(ROOT).as_posix()
+
+README_MAX_LINES = 250
+RESULTS_README_MAX_LINES = 400
+FOREIGN_DOCS = ("paper-and-original", "architecture section", "architecture.md")
+"""Documents outside the repo that no tracked file may cite."""
+PATH_PREFIXES = ("mapush/", "tools/", "docs/", "results/", "tests/", ".ci/")
+PLACEHOLDERS = ("*", "<", "{", "...", "NAME", "RUN")
+STATUSES = ("not adopted", "adopted", "superseded")
+
+LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
+BACKTICKED = re.compile(r"`([^`\n]+)`")
+FENCE = re.compile(r"^(```|~~~).*?^\1", re.DOTALL | re.MULTILINE)
+
+
+def tracked_files() -> list[str]:
+    out = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True)
+    return [name for name in out.stdout.decode().split("\0") if name]
+
+
+def doc_files() -> list[Path]:
+    """README.md, CHANGELOG.md and every Markdown file under docs/ and results/ (tracked or new)."""
+    files = [ROOT / "README.md", ROOT / "CHANGELOG.md"]
+    for folder in ("docs", "results"):
+        files += sorted((ROOT / folder).rglob("*.md"))
+    return files
+
+
+def line_count(path: Path) -> int:
+    return len(path.read_text().splitlines())
+
+
+def relative_links(text: str) -> list[str]:
+    """The targets of `[..](target)` links that point into the repo, anchors cut off."""
+    targets = []
+    for target in LINK.findall(FENCE.sub("", text)):
+        if re.match(r"^[a-z][a-z0-9+.-]*:", target) or target.startswith("#"):
+            continue  # http(s), mailto, ... and in-page anchors
+        targets.append(target.split("#", 1)[0])
+    return targets
+
+
+def repo_paths(text: str) -> list[str]:
+    """Backticked repo paths outside code blocks, without wildcards or placeholders."""
+    paths = []
+    for span in BACKTICKED.findall(FENCE.sub("", text)):
+        word = span.strip()
+        if " " in word or not word.startswith(PATH_PREFIXES) or any(p in word for p in PLACEHOLDERS):
+            continue
+        paths.append(word.split("::", 1)[0].rstrip(".,;:"))  # a pytest node id names its file
+    return paths
+
+
+def test_the_readme_is_short():
+    assert line_count(ROOT / "README.md") <= README_MAX_LINES
+
+
+def test_the_results_readme_is_short():
+    assert line_count(ROOT / "results" / "README.md") <= RESULTS_README_MAX_LINES
+
+
+def test_the_readme_keeps_the_two_commands_ci_runs():
+    text = (ROOT / "README.md").read_text()
+    assert "bash tools/setup.sh && .venv/bin/mapush train\n" in text
+    assert 'EXTRAS=test,ray bash tools/setup.sh && .venv/bin/python -m pytest -m "" --durations=15\n' in text
+
+
+def test_no_tracked_file_cites_a_document_outside_the_repo():
+    offenders = []
+    for name in tracked_files():
+        if name == THIS:
+            continue
+        path = ROOT / name
+        if not path.is_file():
+            continue  # deleted in the worktree, not yet in the index
+        try:
+            text = path.read_text().lower()
+        except UnicodeDecodeError:
+            continue  # binary
+        offenders += [f"{name}: {doc}" for doc in FOREIGN_DOCS if doc in text]
+    assert not offenders, offenders
+
+
+@pytest.mark.parametrize("doc", doc_files(), ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_every_relative_link_resolves(doc: Path):
+    missing = [t for t in relative_links(doc.read_text()) if t and not (doc.parent / t).exists()]
+    assert not missing, missing
+
+
+@pytest.mark.parametrize("doc", doc_files(), ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_every_backticked_repo_path_exists(doc: Path):
+    missing = [p for p in repo_paths(doc.read_text()) if not (ROOT / p).exists()]
+    assert not missing, missing
+
+
+def test_the_docs_the_readme_names_exist():
+    for name in ("design", "experiments", "fidelity", "performance", "reproducibility"):
+        assert (ROOT / "docs" / f"{name}.md").is_file(), name
+    assert sorted((ROOT / "docs" / "notes").glob("*.md")), "docs/notes/ holds no note"
+
+
+@pytest.mark.parametrize("note", sorted((ROOT / "docs" / "notes").glob("*.md")), ids=lambda p: p.name)
+def test_every_note_opens_with_its_status(note: Path):
+    assert re.match(r"^\d{4}-\d{2}-\d{2}-[a-z0-9-]+\.md$", note.name), "name a note YYYY-MM-DD-topic.md"
+    lines = [line for line in note.read_text().splitlines() if line.strip()]
+    assert lines and lines[0].startswith("# "), "a note starts with its title"
+    assert len(lines) > 1 and lines[1].startswith("Status:"), "the line after the title is its status"
+    assert any(status in lines[1].lower() for status in STATUSES), lines[1]
+
+
+def test_the_checks_catch_what_they_should():
+    """The helpers flag a broken link, a missing path and a foreign citation, and skip what they should skip."""
+    text = "[a](missing/file.md) [b](https://x.org) [c](#anchor) `mapush/nope.py` `tools/*.py` `runs/<run>`\n"
+    text += "```bash\n[d](in/code.md) `mapush/in_code.py`\n```\n"
+    assert relative_links(text) == ["missing/file.md"]
+    assert repo_paths(text) == ["mapush/nope.py"]
+    assert any(doc in "see paper-and-original.md 1.1" for doc in FOREIGN_DOCS)
