@@ -31,12 +31,16 @@ def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     run_dir = new_run_dir(cfg)
     try:
         save_run_config(run_dir, cfg, overrides, command)
-    except BaseException:  # e.g. a full disk: no half-made run dir is left behind
-        if not existed:
+        print(run_dir, flush=True)
+        _run(plain, run_dir)
+    except (BadInput, OSError):  # refused (too many envs) or a full disk before any checkpoint: nothing half-made
+        if not existed and not checkpoints(run_dir):
             shutil.rmtree(run_dir, ignore_errors=True)
+            for parent in run_dir.parents:  # the level and task dirs it alone made
+                if parent == Path(cfg.train.run_root) or not parent.is_dir() or any(parent.iterdir()):
+                    break
+                parent.rmdir()
         raise
-    print(run_dir, flush=True)
-    _run(plain, run_dir)
     return run_dir
 
 

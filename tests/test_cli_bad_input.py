@@ -236,3 +236,9 @@ def test_a_locomotion_policy_that_is_not_torchscript_is_one_line(train_bad, tmp_
     fake = tmp_path / "policy.pt"
     fake.write_bytes(b"not a zip archive")
     assert_bad_input(train_bad("lowlevel=go1", f"lowlevel.policy={fake}"), "is not a TorchScript policy", "valid:")
+
+
+def test_more_envs_than_memory_holds_is_one_line_naming_the_most(train_bad):
+    line = assert_bad_input(train_bad("num_envs=100000000"), "num_envs=100000000", "GiB", "valid: num_envs <=")
+    most = int(line.rpartition("<= ")[2])
+    assert 1000 < most < 100000000

@@ -13,6 +13,8 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjb
 
+from mapush.errors import BadInput
+
 BAD_STATE_WARNINGS = [
     int(mujoco.mjtWarning.mjWARN_BADQPOS),
     int(mujoco.mjtWarning.mjWARN_BADQVEL),
@@ -20,6 +22,32 @@ BAD_STATE_WARNINGS = [
 ]
 """MuJoCo's warnings for a NaN, infinite or huge state: it then resets that sim to the model's defaults and steps
 on, so the state read afterwards is finite again and only these counters tell that the sim diverged."""
+
+
+def _check_memory(model: mujoco.MjModel, num_envs: int) -> None:
+    """BadInput before allocating when the simulations' state buffers alone (`model.nbuffer` bytes each, written at
+    once; the arena, `model.narena`, is reserved and touched as contacts need it) exceed the memory available."""
+    available = _available_bytes()
+    need = num_envs * model.nbuffer
+    if available and need > available:
+        most = available // model.nbuffer
+        raise BadInput(
+            f"num_envs={num_envs} needs about {need / 2**30:.1f} GiB for MuJoCo's state buffers alone "
+            f"({model.nbuffer / 2**10:.0f} kB each) but {available / 2**30:.1f} GiB are available; valid: num_envs "
+            f"<= {most}"
+        )
+
+
+def _available_bytes() -> int | None:
+    """MemAvailable of /proc/meminfo (Linux), else None."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
 
 
 class BatchSim:
@@ -37,7 +65,17 @@ class BatchSim:
         self.num_envs = num_envs
         self.decimation = int(decimation)
         threads = nthread or os.cpu_count() or 1
-        self.batch = mjb.Batch(model, nsim=num_envs, nthread=min(threads, num_envs))
+        _check_memory(model, num_envs)
+        try:
+            self.batch = mjb.Batch(model, nsim=num_envs, nthread=min(threads, num_envs))
+        except (MemoryError, ValueError) as err:  # MuJoCo's std::bad_alloc arrives as a ValueError
+            if not isinstance(err, MemoryError) and "alloc" not in str(err):
+                raise
+            each_mb = (model.narena + model.nbuffer) / 2**20  # what every simulation reserves
+            raise BadInput(
+                f"num_envs={num_envs}: MuJoCo could not allocate {num_envs} simulations of {each_mb:.1f} MB each "
+                f"({num_envs * each_mb / 2**10:.0f} GB; {err}); valid: fewer envs"
+            ) from None
         self.qpos, self.qvel, self.ctrl = self.batch.bind("qpos"), self.batch.bind("qvel"), self.batch.bind("ctrl")
         self._bad_states = np.zeros(num_envs, dtype=np.int64)  # BAD_STATE_WARNINGS counted since each env's reset
 
