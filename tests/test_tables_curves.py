@@ -76,6 +76,19 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
     assert budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])]).endswith("(rule: < 3): flattened")
 
 
+def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
+    from mapush.report.plots import budget_verdict
+
+    def result(rates):
+        points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
+        return {"curve": {"rule": RULE, "points": points}}
+
+    never = budget_verdict("H+L", [result([0.0] * 5), result([0.0] * 5)])
+    assert never == "H+L: did not learn: 0 % success at every one of 10 evaluated checkpoints"
+    once = budget_verdict("H+L", [result([0.0, 0.0, 0.02, 0.0, 0.0])])  # one success once: it did learn a little
+    assert "did not learn" not in once and once.endswith("flattened")
+
+
 def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr

@@ -55,13 +55,17 @@ def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
 
 def budget_verdict(label: str, results: list[dict], stage: str | None = None) -> str | None:
     """Whether the budget of `results` (of their evaluated stage, or of `stage`) has flattened by their
-    experiment's rule (the success gained over the last `tail` of the env-steps, mean over seeds, below
+    experiment's rule, or whether they did not learn at all (0 % at every checkpoint: a flat curve at 0 is no
+    budget that has done its work) (the success gained over the last `tail` of the env-steps, mean over seeds, below
     `max_gain`), and where the mean curve peaked when that tail lost `max_gain` or more (a budget past the peak is
     no better than a shorter one); None without curves."""
     curves = [c for c in (curve_of(r, stage) for r in results) if c and c["points"]]
     if not curves:
         return None
     rule = curves[0]["rule"]
+    if all(point["success_rate"] == 0 for c in curves for point in c["points"]):
+        checkpoints = sum(len(c["points"]) for c in curves)
+        return f"{label}: did not learn: 0 % success at every one of {checkpoints} evaluated checkpoints"
     gains = [g for g in (tail_gain(c["points"], float(rule["tail"])) for c in curves) if g is not None]
     if not gains:
         return f"{label}: too few checkpoints to judge the budget"
