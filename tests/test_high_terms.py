@@ -17,6 +17,7 @@ from stand_ins import stand_in_env
 
 from mapush.envs.observations import high_obs_dim, high_observation
 from mapush.errors import BadInput
+from mapush.planning.paths import remaining_length
 from mapush.rewards import terms
 
 
@@ -79,6 +80,28 @@ def test_path_following_rejects_an_unknown_point():
     env = team(num_envs=1, path=PATHS[:1], subgoal_xy=torch.zeros(1, 2))
     with pytest.raises(BadInput, match="robot"):
         terms.path_following(env, point="robot")
+
+
+def test_remaining_path_length_agrees_with_shapely():
+    """Length minus shapely's projection (the arc length to the nearest point of the line) is what is left."""
+    import shapely
+
+    rng = np.random.default_rng(1)
+    paths = torch.from_numpy(np.cumsum(rng.uniform(-1, 2, (50, 12, 2)), axis=1)).float()
+    points = paths[:, 5] + torch.from_numpy(rng.uniform(-1.5, 1.5, (50, 2))).float()
+    got = remaining_length(paths, points)
+    for k in range(50):
+        line = shapely.LineString(paths[k].tolist())
+        expected = line.length - line.project(shapely.Point(points[k].tolist()))
+        assert got[k].item() == pytest.approx(expected, abs=1e-3)
+
+
+def test_path_progress_is_the_drop_of_the_remaining_length_over_the_decision():
+    path = torch.tensor([[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]]]).repeat(3, 1, 1)  # 8 m
+    start = torch.tensor([7.0, 4.0, 4.0])  # remaining at the decision's start: 7, 4 and 4 m
+    now = torch.tensor([[2.0, 0.5], [4.0, 1.0], [3.9, -0.2]])  # 1 m further, 1 m further, 0.1 m back (off the path)
+    env = stand_in_env(object_xy=now, path=path, path_remaining_at_decision=start, policy_agents=1)
+    assert terms.path_progress(env)[:, 0].tolist() == pytest.approx([1.0, 1.0, -0.1], abs=1e-5)
 
 
 def test_obstacle_proximity_is_one_over_one_plus_the_nearest_gap():

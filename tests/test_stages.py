@@ -14,7 +14,7 @@ from mapush.config import compose_config, load_run_config
 from mapush.errors import BadInput
 from mapush.experiments import pipeline, stages
 from mapush.experiments.archive import made_otherwise
-from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job
+from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job, stage_budget
 from mapush.experiments.stages import compose_stage, identity_of
 from mapush.experiments.sweep import sweep_overrides
 from mapush.rundir import find_runs
@@ -85,6 +85,24 @@ def test_a_task_may_have_its_own_stage_budget():
         cfg.experiment.budgets.quick.stages.high.by_task = {"tblock": {"envsteps": 1.0e6}}
     with pytest.raises(BadInput, match=r"by_task entry 'tblock.envsteps'; valid: .* num_envs and/or env_steps"):
         planned_stages(cfg)
+
+
+def test_every_method_learns_as_long_as_ours_stages_together():
+    """experiment/main.yaml: `same_learning_as: ours`. Ours learns 12M (mid) + 5M (high) env-steps; a method with
+    one stage learns those 17M in it; SA, with Ours' stages, learns as Ours does."""
+
+    def learned(method: str, **budget) -> dict[str, float]:
+        cfg = compose_config(["experiment=main", f"method={method}", "task=cuboid"], config_name="sweep")
+        with open_dict(cfg):
+            cfg.experiment.budgets.quick.update(budget)
+        return {name: float(stage_budget(cfg, name).env_steps) for name in cfg.method.stages}
+
+    assert learned("ours") == learned("sa") == {"mid": 12e6, "high": 5e6}
+    assert learned("hl") == learned("hl_ft") == {"high": 17e6}
+    assert learned("ml") == learned("ml_ft") == {"mid": 17e6}
+    assert learned("hl", same_learning_as=None) == {"high": 5e6}  # without the rule: the stage's own entry
+    with pytest.raises(BadInput, match=r"same_learning_as 'ourz'; valid: .*hl_ft"):
+        learned("hl", same_learning_as="ourz")
 
 
 def test_a_field_of_the_task_on_the_sweep_command_line_reaches_every_stage():

@@ -24,7 +24,7 @@ from mapush.envs.push import PushEnv
 from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
 from mapush.planning.geometry import near_gaps, rectangles, rotate, transform
-from mapush.planning.paths import nearest_index, path_spacing, random_curved_paths
+from mapush.planning.paths import nearest_index, path_spacing, random_curved_paths, remaining_length
 from mapush.sim.shapes import object_radius
 
 
@@ -192,6 +192,8 @@ class HighPushEnv(PushEnv):
         """
         level = self.cfg["level"]
         self._apply_action(actions.reshape(self.num_envs, self.policy_agents, self.num_actions))
+        # where the object stood on its path when the decision began (reward `path_progress`)
+        self.path_remaining_at_decision = remaining_length(self.path, self.state.object_xy)
         finished = self.success | self.failed  # latched within the decision
         diverged_any = torch.zeros(self.num_envs, dtype=torch.bool)
         self.exception = torch.zeros(self.num_envs, dtype=torch.bool)

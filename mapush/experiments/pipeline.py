@@ -111,7 +111,30 @@ def budget_of(cfg: DictConfig) -> DictConfig:
 
 def stage_budget(cfg: DictConfig, name: str) -> DictConfig:
     """The budget's `num_envs` and `env_steps` for stage `name` of the job's task: the stage's entry, with the
-    task's own values from its `by_task` where the task has some (a stage that learns more slowly on one object)."""
+    task's own values from its `by_task` where the task has some (a stage that learns more slowly on one object).
+
+    With the budget's `same_learning_as: METHOD`, every method learns for as many env-steps as METHOD's stages
+    together: its last stage gets that total less what its earlier stages learn (H+L's one high level learns as
+    long as Ours' mid and high levels together)."""
+    own = _stage_entry(cfg, name)
+    reference = budget_of(cfg).get("same_learning_as")
+    method_stages = list(cfg.method.stages)
+    if not reference or name != method_stages[-1] or cfg.method.name == reference:
+        return own
+    if reference not in group_options("method"):
+        raise BadInput(
+            f"budget {cfg.budget!r}: same_learning_as {reference!r}; valid: {', '.join(group_options('method'))}"
+        )
+    total = sum(float(_stage_entry(cfg, stage).env_steps) for stage in group_file("method", reference).stages)
+    earlier = sum(float(_stage_entry(cfg, stage).env_steps) for stage in method_stages[:-1])
+    if total <= earlier:
+        raise BadInput(f"budget {cfg.budget!r}: {cfg.method.name}'s stages before {name!r} already learn as long as "
+                       f"{reference}'s; valid: a same_learning_as method that learns longer")  # fmt: skip
+    return OmegaConf.create({"num_envs": own.num_envs, "env_steps": total - earlier})
+
+
+def _stage_entry(cfg: DictConfig, name: str) -> DictConfig:
+    """`stage_budget` as the budget writes it for stage `name` and the job's task."""
     budget = budget_of(cfg)
     if name not in budget.stages:
         raise BadInput(f"budget {cfg.budget!r} of experiment {cfg.experiment.name!r} has no stage {name!r}")

@@ -84,6 +84,20 @@ def distance_to_path(path: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
     return torch.linalg.vector_norm(path - points.unsqueeze(1), dim=-1).amin(-1)
 
 
+def remaining_length(path: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
+    """Arc length from each point's projection onto its polyline (E, P, 2) to the polyline's end: (E,). The
+    projection is onto the nearest segment, so it moves smoothly as the point does (a potential for shaping)."""
+    a, b = path[:, :-1], path[:, 1:]  # segments (E, P - 1, 2)
+    seg = b - a
+    seg_len = torch.linalg.vector_norm(seg, dim=-1)  # (E, P - 1)
+    rel = points.unsqueeze(1) - a
+    t = ((rel * seg).sum(-1) / (seg_len**2).clamp(min=1e-12)).clamp(0.0, 1.0)
+    gap = torch.linalg.vector_norm(rel - t.unsqueeze(-1) * seg, dim=-1)
+    k = gap.argmin(-1, keepdim=True)  # (E, 1): the nearest segment
+    after = seg_len.flip(-1).cumsum(-1).flip(-1) - seg_len  # length of the segments after each one
+    return ((1 - t.gather(1, k)) * seg_len.gather(1, k) + after.gather(1, k)).squeeze(1)
+
+
 def length(path: torch.Tensor) -> torch.Tensor:
     """Arc length of polylines (..., P, 2): (...)."""
     return torch.linalg.vector_norm(path[..., 1:, :] - path[..., :-1, :], dim=-1).sum(-1)

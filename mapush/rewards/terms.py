@@ -11,7 +11,7 @@ import functools
 import torch
 
 from mapush.errors import BadInput
-from mapush.planning.paths import distance_to_path
+from mapush.planning.paths import distance_to_path, remaining_length
 
 
 def _shared(env, value: torch.Tensor) -> torch.Tensor:
@@ -149,6 +149,13 @@ def path_following(env, point: str = "subgoal") -> torch.Tensor:
         raise BadInput(f"path_following point {point!r}; valid: {', '.join(PATH_FOLLOWERS)}")
     xy = env.subgoal_xy if point == "subgoal" else env.state.object_xy
     return _shared(env, 1.0 / (1.0 + distance_to_path(env.path, xy)))
+
+
+def path_progress(env) -> torch.Tensor:
+    """The drop, over this decision, of the object's remaining path length (m): from its projection onto the
+    reference path to the path's end. Potential-based (the potential is minus the remaining length), so it adds
+    no optimum of its own; a progress signal for policies that have no subgoal (H+L FT)."""
+    return _shared(env, env.path_remaining_at_decision - remaining_length(env.path, env.state.object_xy))
 
 
 def obstacle_proximity(env) -> torch.Tensor:
