@@ -11,6 +11,7 @@ import subprocess
 import sys
 import textwrap
 from pathlib import Path
+from types import SimpleNamespace
 from typing import ClassVar
 
 import numpy as np
@@ -297,3 +298,22 @@ def test_a_high_level_frame_shows_the_object_it_tracks(smoke_run, tmp_path):
     r, g, b = frame[..., 0], frame[..., 1], frame[..., 2]
     orange = (r > g) & (g > b) & (r - b > 80)  # the object's colour (0.9, 0.55, 0.2) under any shading
     assert orange.mean() > 0.005, f"{orange.mean():.4f} of the frame shows the object"
+
+
+def test_a_high_level_video_frames_the_object_and_the_target():
+    """The tracking camera of a level with a final target looks at the middle of object and target, from far enough
+    for both (the object alone, 9 m away, left a 10+ m target out of the picture)."""
+    import mujoco
+
+    from mapush.viz.scene import FRAMING, EnvView
+
+    view = SimpleNamespace(camera_cfg={"track": True, "distance": 9.0}, success_distance=1.0)
+    camera = mujoco.MjvCamera()
+    row = {"object_xy": np.array([-5.0, 0.0]), "target_xy": np.array([6.0, 2.0])}
+    EnvView.frame(view, camera, row)
+    assert camera.type == mujoco.mjtCamera.mjCAMERA_FREE
+    assert camera.lookat[:2].tolist() == [0.5, 1.0]
+    assert camera.distance == pytest.approx(FRAMING * (np.hypot(11.0, 2.0) + 2.0))
+    mid_level = mujoco.MjvCamera()  # no target: the camera stays as set_camera placed it
+    EnvView.frame(view, mid_level, {"object_xy": np.zeros(2), "subgoal_xy": np.ones(2)})
+    assert mid_level.type == mujoco.MjvCamera().type and mid_level.distance == mujoco.MjvCamera().distance

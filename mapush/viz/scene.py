@@ -38,6 +38,10 @@ def rgba(name: str, index: int = 0) -> np.ndarray:
 COMMAND = np.array([*RGBA["subgoal"][:3], 1.0], dtype=np.float32)  # the commanded velocity, opaque green
 
 
+FRAMING = 1.3
+"""Camera distance per metre between the object and the target when both are framed (fits both at 45 degrees)."""
+
+
 def env_row(env, env_id: int) -> dict[str, np.ndarray]:
     """Env `env_id`'s row of `env.scene_frame()` (the episode files' per-step picture) as numpy arrays."""
     return {name: value[env_id].numpy() for name, value in env.scene_frame().items()}
@@ -90,6 +94,19 @@ class EnvView:
         camera.distance = float(cam["distance"])
         camera.azimuth = float(cam["azimuth"])
         camera.elevation = float(cam["elevation"])
+
+    def frame(self, camera: mujoco.MjvCamera, row: dict[str, np.ndarray]) -> None:
+        """With a tracking camera and a final target (the high levels), look at the middle of the object and the
+        target from far enough to show both and the path between (`set_camera` otherwise)."""
+        cam = self.camera_cfg
+        if not cam["track"] or "target_xy" not in row or "object_xy" not in row:
+            return
+        obj, target = row["object_xy"], row["target_xy"]
+        camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        camera.lookat[:2] = (obj + target) / 2
+        camera.lookat[2] = 0.0
+        span = float(np.linalg.norm(target - obj)) + 2 * self.success_distance
+        camera.distance = max(float(cam["distance"]), FRAMING * span)
 
     def draw(self, scene: mujoco.MjvScene, row: dict[str, np.ndarray]) -> None:
         """Add the overlays of a scene row to `scene` as user geoms, after its model geoms."""

@@ -69,6 +69,7 @@ class FrameRenderer:
     def render(self, env, env_id: int = 0) -> np.ndarray:
         """The picture of env `env_id` now, (height, width, 3) uint8."""
         row = self.view.load(env, env_id)
+        self.view.frame(self.camera, row)  # object, path and target in view where the level has a target
         self.renderer.update_scene(self.view.data, camera=self.camera)
         self.view.draw(self.renderer.scene, row)
         return self.renderer.render()
