@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import fcntl
 import io
@@ -351,16 +352,20 @@ def test_a_killed_sweep_leaves_no_process_behind_and_resumes(tmp_path, sig):
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     sweep = subprocess.Popen(cmd, cwd=tmp_path, env=env, start_new_session=True, stdout=subprocess.DEVNULL,
                              stderr=subprocess.DEVNULL)  # fmt: skip
-    deadline = time.monotonic() + 240
-    while len(list((tmp_path / "sweeps").glob("stages/*/mid/*/*/model_*.pt"))) < 4:  # both jobs are training
-        assert time.monotonic() < deadline and sweep.poll() is None
-        time.sleep(1)
-    sweep.send_signal(sig)
-    sweep.wait()
-    deadline = time.monotonic() + GRACE_S + 30
-    while _group_alive(sweep.pid):
-        assert time.monotonic() < deadline, "a worker outlived its sweep"
-        time.sleep(1)
+    try:
+        deadline = time.monotonic() + 240
+        while len(list((tmp_path / "sweeps").glob("stages/*/mid/*/*/model_*.pt"))) < 4:  # both jobs are training
+            assert time.monotonic() < deadline and sweep.poll() is None
+            time.sleep(1)
+        sweep.send_signal(sig)
+        sweep.wait()
+        deadline = time.monotonic() + GRACE_S + 30
+        while _group_alive(sweep.pid):
+            assert time.monotonic() < deadline, "a worker outlived its sweep"
+            time.sleep(1)
+    finally:  # whatever failed above, leave nothing running
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(sweep.pid, signal.SIGKILL)
     cut = sorted((tmp_path / "sweeps").glob("stages/*/mid/*/*"))
     assert len(cut) == 2 and all(not (run / "policy.pt").exists() for run in cut)
     for run in cut:  # the stage lock is free: another process takes it at once
