@@ -105,9 +105,11 @@ def test_ring_capacity_is_one_when_the_ring_is_too_small():
 
 @pytest.mark.parametrize("num_agents", [1, 9])
 def test_agent_counts_that_fit_the_ring_pass(cfg_for, num_agents):
+    """1 and 9 robots fit the cuboid's 1.2 m ring 0.75 m apart (9 is the most: 10 is refused below)."""
     task = cfg_for("task=cuboid")["task"]
     task["num_agents"] = num_agents
-    check_agent_count(task, 0.75)
+    assert ring_capacity(task["spawn"]["agent_radius"][0], 0.75) == 9
+    assert check_agent_count(task, 0.75) is None  # no BadInput
 
 
 @pytest.mark.parametrize("num_agents", [0, 10, 40])
