@@ -129,8 +129,13 @@ def check_config(cfg: DictConfig | dict) -> None:
         if value is not None and not (isinstance(value, str) and value.replace("_", "").replace("-", "").isalnum()):
             raise BadInput(f"{key}={value!r} is not valid; valid: a name of letters, digits, - and _")
     algo = OmegaConf.select(cfg, "algo", default=None)
-    if algo is not None:
-        check_class_names("algo", OmegaConf.to_container(algo))
+    if algo is not None:  # as written (no interpolation may name code) and as rsl-rl will read it
+        check_class_names("algo", OmegaConf.to_container(algo), resolved=False)
+        try:
+            resolved = OmegaConf.to_container(algo, resolve=True)
+        except Exception as err:  # OmegaConf's interpolation errors have several types
+            raise BadInput(f"algo does not resolve ({str(err).strip().splitlines()[0]})") from None
+        check_class_names("algo", resolved)
 
 
 def _check_value(key: str, value, kind: type, test: Callable, valid: str) -> None:

@@ -9,7 +9,9 @@ one line before it is imported.
 
 from __future__ import annotations
 
+import importlib
 import os
+import re
 from importlib import metadata
 
 from mapush.errors import BadInput
@@ -29,26 +31,52 @@ def trusted_modules() -> tuple[str, ...]:
     return (*TRUSTED_MODULES, *plugins, *user)
 
 
+def _is_trusted(module: str, trusted: tuple[str, ...]) -> bool:
+    return any(module == root or module.startswith(f"{root}.") for root in trusted)
+
+
 def check_trusted(key: str, path: object) -> None:
-    """BadInput unless `path` (`module:attr`, `module.attr`, or a bare rsl-rl class name) names trusted code."""
+    """BadInput unless `path` names trusted code: `module:Name` (one name after the colon, whose object is defined
+    in a trusted module, so that no trusted module can lend out a name it imported) or a bare rsl-rl class name."""
     if not isinstance(path, str):
         raise BadInput(f"{key}={path!r} is not valid; valid: a string naming a function or class")
+    if "${" in path:
+        raise BadInput(f"{key}={path!r}: an interpolation cannot name code, refused; valid: module:Name")
     module = path.partition(":")[0] if ":" in path else path.rpartition(".")[0]
     if not module:
         return  # a bare name: rsl-rl looks it up among its own classes only
     trusted = trusted_modules()
-    if not any(module == root or module.startswith(f"{root}.") for root in trusted):
+    if not _is_trusted(module, trusted):
         raise BadInput(
             f"{key}={path!r} names code outside the trusted modules, refused (a config is data); valid: code in "
             f"{', '.join(trusted)}, or trust its module with `mapush --trust {module.split('.')[0]} ...`"
         )
+    name = path.partition(":")[2]
+    if ":" not in path or not name.isidentifier():
+        raise BadInput(f"{key}={path!r} is refused; valid: module:Name, one name after the colon")
+    try:
+        found = getattr(importlib.import_module(module), name, None)
+    except ImportError:
+        return  # the caller names the module that does not import
+    owner = getattr(found, "__module__", None)
+    if found is not None and not (isinstance(owner, str) and _is_trusted(owner, trusted)):
+        raise BadInput(f"{key}={path!r} is code of {owner!r}, lent by {module}; refused (a config is data)")
 
 
-def check_class_names(section: str, node: object) -> None:
-    """`check_trusted` for every `class_name` in a config section (rsl-rl's algorithm, actor, critic, ...)."""
+QUALIFIED = re.compile(r"^[A-Za-z_]\w*(?:[.:][A-Za-z_]\w*)+$")
+"""A string that rsl-rl would resolve to code (`module:Name`, `package.module.Name`)."""
+
+
+def check_class_names(section: str, node: object, resolved: bool = True) -> None:
+    """`check_trusted` for every `class_name` in a config section (rsl-rl's algorithm, actor, critic, ...) and, in
+    a `resolved` section, for every other string that rsl-rl could resolve to code (a symmetry function, say).
+    Unresolved, only `class_name`s are checked: none may be an interpolation."""
     if isinstance(node, dict):
         for key, value in node.items():
-            if key == "class_name":
-                check_trusted(f"{section}.class_name", value)
+            if key == "class_name" or (resolved and isinstance(value, str) and QUALIFIED.match(value)):
+                check_trusted(f"{section}.{key}", value)
             else:
-                check_class_names(f"{section}.{key}", value)
+                check_class_names(f"{section}.{key}", value, resolved)
+    elif isinstance(node, list):
+        for k, value in enumerate(node):
+            check_class_names(f"{section}[{k}]", value, resolved)
