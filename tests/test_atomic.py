@@ -51,3 +51,19 @@ def test_two_evaluations_of_one_run_at_once_leave_every_file_whole(run_copy, tmp
     assert summary(run_copy / "episodes.mcap")["complete"]
     assert json.loads((run_copy / "eval.json").read_text())["seeds"] == [0, 1]
     assert not list(run_copy.glob(".*.tmp"))
+
+
+def test_an_evaluation_cut_midway_keeps_the_last_good_episode_file(tmp_path):
+    """EpisodeRecorder(whole=True).discard(): the partial file goes, the earlier file at the name stays."""
+    from mapush.config import compose_config, to_plain
+    from mapush.levels import scene_layout
+    from mapush.logging.episodes import EpisodeRecorder
+
+    cfg = to_plain(compose_config(["debug=smoke"]))
+    good = tmp_path / "episodes.mcap"
+    good.write_bytes(b"the last good file")
+    recorder = EpisodeRecorder(good, scene_layout(cfg), ["r"], ("diverged",), whole=True)
+    recorder._open()  # as the first finished episode would
+    assert recorder.partial.exists() and recorder.partial != good
+    recorder.discard()
+    assert good.read_bytes() == b"the last good file" and not recorder.partial.exists()

@@ -19,7 +19,7 @@ from mapush.planning.geometry import corners, point_distance, polygon_gap
 from mapush.planning.paths import length, random_curved_paths, resample
 from mapush.planning.planner import ObjectPlanner
 
-PLANNER = {"name": "RRTConnect", "max_checks": 100_000, "time_limit_s": 1.0, "range_m": 2.0, "margin_m": 0.1,
+PLANNER = {"name": "RRTConnect", "max_checks": 50_000, "time_limit_s": 1.0, "range_m": 2.0, "margin_m": 0.1,
            "resolution_m": 0.05, "simplify": True}  # fmt: skip
 
 

@@ -168,10 +168,14 @@ def _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, vide
     recorders = [eval_video_recorder(cfg, eval_video_path(out_dir, name))] if video else []  # checks the renderer
     recorders += _eval_recorders(cfg, out_dir / f"{Path(EPISODES).stem}{_suffix(name)}.mcap", live)
     try:
-        return [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
-    finally:
+        per_seed = [run_episodes(cfg, checkpoint, episodes, s, recorders) for s in seeds]
+    except BaseException:  # failed or cut: an episode file that is whole only when finished is dropped
         for recorder in recorders:
-            recorder.close()
+            getattr(recorder, "discard", recorder.close)()
+        raise
+    for recorder in recorders:
+        recorder.close()
+    return per_seed
 
 
 def _suffix(name: str) -> str:

@@ -53,7 +53,7 @@ UNSET_LATER_KEYS = {
     "lowlevel.randomize": None,
     "sim.robot_contacts": True,
     "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (T-block, cylinder, OCB cuboid)
-    "level.planner.max_checks": 100000,  # the planner's work budget; plans before it ended on first solutions too
+    "level.planner.max_checks": 50000,  # the planner's work budget; plans before it ended on first solutions too
 }
 """Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
 stays out of the identity (and so does a parent it leaves empty), so the stages trained before it existed keep

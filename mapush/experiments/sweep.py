@@ -83,9 +83,9 @@ def job(cfg: DictConfig) -> str:
     try:
         run_job(cfg, job_dir, job_threads(cfg))
         return "ok"
-    except BaseException as err:  # the job reports and returns; an interrupt or a stop still ends the process
+    except BaseException as err:  # the job reports and returns; an interrupt, or its sweep gone, ends the process
         (job_dir / FAILED).write_text("".join(traceback.format_exception(err)))
-        if isinstance(err, (KeyboardInterrupt, SystemExit)):
+        if isinstance(err, KeyboardInterrupt) or (isinstance(err, SystemExit) and between_jobs.sweep_gone):
             raise
         return f"failed: {err}"
     finally:
@@ -99,6 +99,7 @@ def _stop_with_the_sweep() -> threading.Event:
     killed sweep leaves no process behind. Cluster jobs (SLURM, Ray) are not the sweep's children and go on.
     Returns the event a job clears while it runs (made here, in the worker: a lock cannot travel to it)."""
     between_jobs = threading.Event()
+    between_jobs.sweep_gone = False  # set by the watch below: a stop then ends the worker, not just its job
     sweep = int(os.environ.get(SWEEP_PID, "0") or 0)
     if not sweep or os.getpid() == sweep or os.getppid() != sweep:
         return between_jobs
@@ -106,6 +107,7 @@ def _stop_with_the_sweep() -> threading.Event:
     def watch() -> None:
         while os.getppid() == sweep:
             time.sleep(1.0)
+        between_jobs.sweep_gone = True
         if not between_jobs.is_set():
             os.kill(os.getpid(), signal.SIGTERM)
             between_jobs.wait(GRACE_S)

@@ -254,7 +254,20 @@ class EpisodeRecorder:
                 self._failed(err)
             self.writer = None
             if self.partial != self.path:
+                with open(self.partial, "rb") as f:
+                    os.fsync(f.fileno())
                 os.replace(self.partial, self.path)
+
+    def discard(self) -> None:
+        """Drop a whole file's recording (an evaluation that failed or was cut): the last good file stays."""
+        if self.partial == self.path:
+            self.close()  # a file written in place keeps what it has, for `mapush logs recover`
+            return
+        writer, self.writer = self.writer, None
+        if writer is not None:
+            with contextlib.suppress(RuntimeError):
+                writer.close()
+        self.partial.unlink(missing_ok=True)
 
 
 class LiveView:
