@@ -2,7 +2,7 @@
 
 A rename within one directory is atomic, so a reader (or a later command) sees the old file or the new one, never
 half of one: a kill, a full disk or a second writer at the same moment leaves no torn `config.yaml`, `eval.json`
-or checkpoint. Temp files are hidden (`.NAME.PID.tmp`), so globs for records (`model_*.pt`, `eval*.json`) never
+or checkpoint. Temp files are hidden (`.NAME.HOST.PID.tmp`), so globs for records (`model_*.pt`, `eval*.json`) never
 see them, and two processes never share one.
 """
 
@@ -12,14 +12,18 @@ import contextlib
 import fcntl
 import json
 import os
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 
+HOST = socket.gethostname().replace(".", "-")
+"""This machine's name in temp files: on a filesystem that several machines share, each reaps only its own."""
+
 
 def temp_path(target: Path) -> Path:
-    """The hidden, per-process temp file that becomes `target`."""
+    """The hidden, per-process temp file that becomes `target`: `.NAME.HOST.PID.tmp`."""
     target = Path(target)
-    return target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    return target.with_name(f".{target.name}.{HOST}.{os.getpid()}.tmp")
 
 
 @contextlib.contextmanager
@@ -63,16 +67,22 @@ def locked(directory: Path) -> Iterator[None]:
     first is done. The lock goes with the process, so a killed holder never leaves it taken."""
     fd = os.open(directory, os.O_RDONLY)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError:  # NFS emulates flock with fcntl locks, which need a file open for writing
+            os.close(fd)
+            fd = os.open(Path(directory) / ".lock", os.O_WRONLY | os.O_CREAT, 0o644)
+            fcntl.flock(fd, fcntl.LOCK_EX)
         yield
     finally:
         os.close(fd)  # releases the lock
 
 
 def remove_leftovers(directory: Path) -> list[Path]:
-    """Delete temp files of writers that are gone (`.NAME.PID.tmp` whose process no longer runs); returns them."""
+    """Delete temp files of this machine's writers that are gone (`.NAME.HOST.PID.tmp` whose process no longer
+    runs here); returns them. Other machines' temp files are theirs to reap."""
     removed = []
-    for tmp in Path(directory).glob(".*.tmp"):
+    for tmp in Path(directory).glob(f".*.{HOST}.*.tmp"):
         pid = tmp.name.rsplit(".", 2)[-2]
         if pid.isdigit() and not _alive(int(pid)):
             tmp.unlink(missing_ok=True)

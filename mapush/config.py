@@ -61,7 +61,10 @@ def search_dirs(overrides: list[str]) -> list[Path]:
             scheme, _, where = str(entry).rpartition("://")
             if scheme == "pkg":
                 package, _, sub = where.partition("/")
-                spec = importlib.util.find_spec(package)
+                try:
+                    spec = importlib.util.find_spec(package)
+                except ModuleNotFoundError:  # a parent package that is not installed
+                    spec = None
                 if spec is None or not spec.submodule_search_locations:
                     raise BadInput(f"hydra.searchpath names pkg://{where}, not an installed package; valid: file://DIR")
                 dirs.append(Path(next(iter(spec.submodule_search_locations))) / sub)

@@ -34,14 +34,25 @@ def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
         print(run_dir, flush=True)
         _run(plain, run_dir)
     except (BadInput, OSError):  # refused (too many envs) or a full disk before any checkpoint: nothing half-made
-        if not existed and not checkpoints(run_dir):
-            shutil.rmtree(run_dir, ignore_errors=True)
-            for parent in run_dir.parents:  # the level and task dirs it alone made
-                if parent == Path(cfg.train.run_root) or not parent.is_dir() or any(parent.iterdir()):
-                    break
-                parent.rmdir()
+        if not checkpoints(run_dir):
+            _unmake(run_dir, existed, Path(cfg.train.run_root))
         raise
     return run_dir
+
+
+def _unmake(run_dir: Path, existed: bool, run_root: Path) -> None:
+    """Remove what a refused run wrote: an empty dir the user chose is emptied again; a dir made under `run_root`
+    goes, with the level and task dirs that held only it."""
+    if existed:
+        for entry in run_dir.iterdir():
+            shutil.rmtree(entry) if entry.is_dir() and not entry.is_symlink() else entry.unlink()
+        return
+    shutil.rmtree(run_dir, ignore_errors=True)
+    root = run_root.resolve()
+    for parent in run_dir.resolve().parents:
+        if parent == root or not parent.is_relative_to(root) or any(parent.iterdir()):
+            break
+        parent.rmdir()
 
 
 def resume(run_dir: Path, iterations: int | None, nthread: int | None = None) -> Path:
@@ -111,15 +122,19 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
 
 
 def _save_interrupted(runner, run_dir: Path) -> None:
-    """Checkpoint the networks as they are (the iterations before the cut one) and print the resume command."""
-    last = runner.current_learning_iteration - 1  # the interrupted iteration did not finish
-    path = run_dir / f"model_{last}.pt"
-    if last >= 0 and not path.exists():
+    """Checkpoint the networks after the last iteration that finished (its PPO update done), unless it is saved
+    already, and print how to go on. A cut inside an update leaves that update's steps in the saved networks."""
+    last = runner.last_finished_iteration()
+    path = run_dir / f"model_{last}.pt" if last is not None else None
+    if path is not None and not path.exists():
         runner.save(str(path))
-    saved = f"{path.name} saved" if path.exists() else "no iteration finished"
-    print(
-        f"mapush: interrupted ({saved}); continue with `mapush train --resume {run_dir}`", file=sys.stderr, flush=True
-    )
+        saved = f"{path.name} saved"
+    else:
+        saved = f"{path.name} was saved already" if path is not None else "no iteration finished"
+    if checkpoints(run_dir):
+        print(f"mapush: interrupted ({saved}); continue with `mapush train --resume {run_dir}`", file=sys.stderr)
+    else:
+        print(f"mapush: interrupted ({saved}); nothing to resume, train again", file=sys.stderr)
 
 
 def attach_episode_recorder(cfg: dict, env, path: Path, every_steps: int) -> EpisodeRecorder:

@@ -9,7 +9,7 @@ import subprocess
 import pytest
 from conftest import MAPUSH
 
-from mapush.atomic import remove_leftovers, replacing, temp_path, write_json
+from mapush.atomic import HOST, remove_leftovers, replacing, temp_path, write_json
 from mapush.logging.mcap_files import summary
 
 
@@ -31,12 +31,14 @@ def test_temp_files_are_hidden_and_per_process(tmp_path):
 def test_leftovers_of_dead_writers_are_removed_and_a_live_writer_s_kept(tmp_path):
     dead = subprocess.Popen(["true"])
     dead.wait()
-    gone = tmp_path / f".eval.json.{dead.pid}.tmp"
+    gone = tmp_path / f".eval.json.{HOST}.{dead.pid}.tmp"
+    elsewhere = tmp_path / f".eval.json.another-host.{dead.pid}.tmp"  # a machine sharing the dir: its own to reap
+    elsewhere.write_text("{")
     live = temp_path(tmp_path / "eval.json")
     gone.write_text("{")
     live.write_text("{")
     assert remove_leftovers(tmp_path) == [gone]
-    assert live.exists() and not gone.exists()
+    assert live.exists() and elsewhere.exists() and not gone.exists()
 
 
 @pytest.mark.slow

@@ -46,13 +46,21 @@ class MapushRunner(OnPolicyRunner):
         def update_with_threads() -> dict:
             torch.set_num_threads(update_threads)
             try:
-                return update()
+                result = update()
             finally:
                 torch.set_num_threads(rollout_threads)
+            self.updates_done += 1
+            return result
 
+        self.updates_done = 0  # PPO updates finished in this process (`last_finished_iteration`)
+        self.first_iteration = 0
         self.alg.update = update_with_threads
         # runs made before `algo.keep_checkpoints` existed keep every checkpoint, as they did
         self.retention = Retention(int(train_cfg.get("keep_checkpoints", 0)))
+
+    def last_finished_iteration(self) -> int | None:
+        """The last iteration whose PPO update finished in this process; None before the first."""
+        return self.first_iteration + self.updates_done - 1 if self.updates_done else None
 
     def save(self, path: str, infos: dict | None = None) -> None:
         """Write the checkpoint to a temp file, then rename it into place: a cut never leaves half a file. Only
@@ -131,6 +139,7 @@ def learn(runner: MapushRunner, iterations: int, log_path: Path, spread_episodes
     `spread_episodes` starts the envs at random points of their first episode, so that episodes do not all time
     out in the same iteration.
     """
+    runner.first_iteration, runner.updates_done = runner.current_learning_iteration, 0
     try:
         with open(log_path, "a") as log, contextlib.redirect_stdout(log):
             runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=spread_episodes)
