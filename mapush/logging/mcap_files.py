@@ -1,7 +1,7 @@
 """Reading mapush's MCAP files, finished or cut: summaries, recovery of killed files, training scalars.
 
 A file whose writer was killed has no footer or index, so indexed readers (Foxglove's among them) refuse it; every
-complete record before the cut is still there (libraries.md 3.5). `recover` streams those records into a new,
+complete record before the cut is still there. `recover` streams those records into a new,
 indexed file; the other readers here fall back to the same streaming when the index is missing.
 """
 
@@ -37,7 +37,7 @@ class Contents:
 
 
 def exit_on_sigterm() -> None:
-    """Turn SIGTERM into SystemExit so that `finally` blocks close the MCAP files being written (libraries.md 3.5)."""
+    """Turn SIGTERM into SystemExit so that `finally` blocks close the MCAP files being written."""
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 

@@ -27,7 +27,7 @@ def go1_spec(
     Args:
         kp: N m/rad, the servos' stiffness. kd: N m s/rad, their damping.
         armature: kg m^2, reflected rotor inertia of each joint (keeps the light calf stable under implicit
-            integration; libraries.md 5.4).
+            integration).
         foot_friction: sliding friction of the feet (MuJoCo combines contacts by max).
     """
     spec = mujoco.MjSpec()

@@ -1,8 +1,8 @@
 """The deterministic actor as ONNX: one self-contained file with a dynamic batch dim, for runtimes without torch.
 
-rsl-rl's own `export_policy_to_onnx` fixes the batch at 1 and writes the weights to a second file (libraries.md
-1.5), so mapush calls torch's dynamo exporter itself ("ONNX fix A"), the exporter torch keeps; the legacy
-TorchScript-based one ("fix B", 30x faster) is deprecated.
+rsl-rl's own `export_policy_to_onnx` fixes the batch at 1 and writes the weights to a second file
+(rsl-rl-lib 5.5.1), so mapush calls torch's dynamo exporter itself, the exporter torch keeps; the legacy
+TorchScript-based one (30x faster) is deprecated.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Presents E envs x A agents to rsl-rl as E*A rows (MAPPO with parameter sharing, libraries.md 1.3).
+"""Presents E envs x A agents to rsl-rl as E*A rows (MAPPO with parameter sharing).
 
 Row r holds agent r % A of env r // A (row = env * A + agent). Every row of an env shares its done and time-out
 flags; each row gets its own agent's reward.
