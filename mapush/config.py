@@ -14,7 +14,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.atomic import write_json, write_yaml
-from mapush.errors import BadInput
+from mapush.errors import BadInput, first_line
 from mapush.schema import check_config
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
@@ -110,7 +110,7 @@ def compose_config(
             if full_key and "not in struct" in str(err.__cause__):
                 base = compose(config_name=config_name, overrides=[o for o in overrides if full_key not in o])
                 raise BadInput(_unknown_key_message(base, str(full_key))) from None
-            raise BadInput(f"bad override: {str(err).strip().splitlines()[0]}") from None
+            raise BadInput(f"bad override: {first_line(err)}") from None
     check_config(cfg)  # types and ranges, before anything is built or written
     return cfg
 
@@ -197,7 +197,7 @@ def load_run_config(run_dir: Path) -> DictConfig:
     try:
         run = OmegaConf.load(path)
     except Exception as err:  # YAML's and OmegaConf's parse errors have many types
-        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        first = first_line(err)
         raise BadInput(
             f"{str(path)!r} is not a readable config ({first}); valid: the config.yaml a run was made with"
         ) from None
@@ -251,7 +251,7 @@ def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
         try:
             override = parser.parse_override(text)
         except Exception as err:  # Hydra's grammar errors: the user's typing
-            raise BadInput(f"bad override {text!r} ({str(err).strip().splitlines()[0]}); valid: key=value") from None
+            raise BadInput(f"bad override {text!r} ({first_line(err)}); valid: key=value") from None
         if override.is_sweep_override():
             raise BadInput(f"override {text!r} is a sweep; valid: one value per key (sweeps: mapush sweep)")
         key, value = override.key_or_group, override.value()

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.errors import BadInput
+from mapush.errors import BadInput, first_line
 from mapush.trust import check_class_names
 
 Rule = tuple[type, Callable[[float], bool], str]
@@ -134,7 +134,7 @@ def check_config(cfg: DictConfig | dict) -> None:
         try:
             resolved = OmegaConf.to_container(algo, resolve=True)
         except Exception as err:  # OmegaConf's interpolation errors have several types
-            raise BadInput(f"algo does not resolve ({str(err).strip().splitlines()[0]})") from None
+            raise BadInput(f"algo does not resolve ({first_line(err)})") from None
         check_class_names("algo", resolved)
 
 

@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import group_options
 from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
-from mapush.experiments.sweep import GRACE_S
+from mapush.experiments.workers import GRACE_S
 from mapush.logging.mcap_files import summary, training_scalars
 from mapush.logging.metrics import THREADS_TAG
 from mapush.report import tables

@@ -8,13 +8,9 @@ cut ones. A job that fails writes `failed.txt` and lets the others run; the fail
 
 from __future__ import annotations
 
-import functools
 import json
 import os
-import signal
 import sys
-import threading
-import time
 import traceback
 from pathlib import Path
 
@@ -25,7 +21,7 @@ from hydra.core.override_parser.types import Glob
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import CONF_DIR, compose_config, group_file, group_options, to_plain
-from mapush.errors import BadInput
+from mapush.errors import BadInput, first_line
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
 from mapush.experiments.archive import load_results
@@ -40,6 +36,7 @@ from mapush.experiments.pipeline import (
     stage_plan,
 )
 from mapush.experiments.stages import STAGE_REF
+from mapush.experiments.workers import SWEEP_PID, stop_with_the_sweep
 from mapush.levels import env_class
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
@@ -67,18 +64,12 @@ if not OmegaConf.has_resolver("cores"):
     OmegaConf.register_new_resolver("cores", lambda: os.cpu_count() or 1)
 
 
-SWEEP_PID = "MAPUSH_SWEEP_PID"
-"""The local sweep's process id, for its worker processes (`_stop_with_the_sweep`)."""
-GRACE_S = 60.0
-"""Seconds a worker whose sweep is gone has to close its job's logs before it exits anyway."""
-
-
 @hydra.main(config_path=str(CONF_DIR), config_name="sweep", version_base="1.3")
 def job(cfg: DictConfig) -> str:
     """One sweep job in its Hydra output dir; never raises, so that a failure leaves the other jobs running."""
     job_dir = Path(HydraConfig.get().runtime.output_dir)
     (job_dir / FAILED).unlink(missing_ok=True)
-    between_jobs = _stop_with_the_sweep()
+    between_jobs = stop_with_the_sweep()
     between_jobs.clear()
     try:
         run_job(cfg, job_dir, job_threads(cfg))
@@ -90,31 +81,6 @@ def job(cfg: DictConfig) -> str:
         return f"failed: {err}"
     finally:
         between_jobs.set()
-
-
-@functools.cache
-def _stop_with_the_sweep() -> threading.Event:
-    """In a local sweep's worker process: once the sweep that started it is gone (killed, even by SIGKILL), stop
-    the running job as SIGTERM does (logs closed, checkpoints kept, its stage lock released) and exit, so that a
-    killed sweep leaves no process behind. Cluster jobs (SLURM, Ray) are not the sweep's children and go on.
-    Returns the event a job clears while it runs (made here, in the worker: a lock cannot travel to it)."""
-    between_jobs = threading.Event()
-    between_jobs.sweep_gone = False  # set by the watch below: a stop then ends the worker, not just its job
-    sweep = int(os.environ.get(SWEEP_PID, "0") or 0)
-    if not sweep or os.getpid() == sweep or os.getppid() != sweep:
-        return between_jobs
-
-    def watch() -> None:
-        while os.getppid() == sweep:
-            time.sleep(1.0)
-        between_jobs.sweep_gone = True
-        if not between_jobs.is_set():
-            os.kill(os.getpid(), signal.SIGTERM)
-            between_jobs.wait(GRACE_S)
-        os._exit(143)
-
-    threading.Thread(target=watch, name="stop-with-the-sweep", daemon=True).start()
-    return between_jobs
 
 
 def job_threads(cfg: DictConfig) -> int:
@@ -197,7 +163,7 @@ def _split_axes(overrides: list[str]) -> dict[str, list[str]]:
         try:
             override = parser.parse_override(text)
         except Exception as err:  # Hydra's grammar errors: the user's typing
-            raise BadInput(f"bad override {text!r} ({str(err).strip().splitlines()[0]}); valid: key=value") from None
+            raise BadInput(f"bad override {text!r} ({first_line(err)}); valid: key=value") from None
         key, value = override.get_key_element(), override.value()
         if isinstance(value, Glob):
             if override.key_or_group not in SWEEP_GROUPS:

@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 import torch
 
-from mapush.errors import BadInput
+from mapush.errors import BadInput, first_line
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec
 from mapush.rundir import SHIPPED_GO1
@@ -91,7 +91,7 @@ def load_locomotion_policy(path: str | Path | None):
     try:
         policy = torch.jit.load(str(target), map_location="cpu")
     except (RuntimeError, ValueError) as err:  # not a TorchScript archive
-        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        first = first_line(err)
         raise BadInput(
             f"lowlevel.policy={str(target)!r} is not a TorchScript policy ({first}); valid: a policy.pt of a "
             "level=low run"
