@@ -21,13 +21,15 @@ CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().paren
 """The `mapush/conf/` tree: package data, so a checkout, an editable install and a wheel all compose alike."""
 
 
-def physx_average(coefficients, other: float) -> list[float]:
-    """The sliding friction of PhysX contacts between bodies of `coefficients` and one body of `other`: the average
-    of the two, PhysX's default combine mode, which the original ran (docs/fidelity.md).
+def physx_average(coefficients, other: float) -> list[float] | float:
+    """The sliding friction of PhysX contacts between bodies of `coefficients` (a list, or one number) and one body
+    of `other`: the average of the two, PhysX's default combine mode, which the original ran (docs/fidelity.md).
 
     MuJoCo takes the larger of a contact's two coefficients, so an object on a less frictional floor carries the
     averaged value itself (the task's `object.friction`). Rounded to 1e-9 so that 0.4 stays 0.4.
     """
+    if isinstance(coefficients, int | float):
+        return round((float(coefficients) + float(other)) / 2, 9)
     return [round((float(mu) + float(other)) / 2, 9) for mu in coefficients]
 
 
@@ -210,6 +212,9 @@ def load_run_config(run_dir: Path) -> DictConfig:
     if (CONF_DIR / "level" / f"{name}.yaml").is_file():
         root.level = level_defaults(name)
     cfg = OmegaConf.merge(root, run)
+    for table in _term_tables(run):  # a term the run saved is the run's, not merged with today's of its name
+        for term, spec in OmegaConf.select(run, table).items():
+            OmegaConf.update(cfg, f"{table}.{term}", spec, merge=False)
     for key, value in ABSENT_MEANT.items():
         parent, _, leaf = key.rpartition(".")
         node = OmegaConf.select(run, parent)
@@ -219,6 +224,13 @@ def load_run_config(run_dir: Path) -> DictConfig:
     if mid and not Path(mid).is_absolute() and (Path(run_dir) / mid).exists():  # a shipped hierarchy's own mid level
         cfg.mid = str((Path(run_dir) / mid).resolve())
     return cfg
+
+
+def _term_tables(run: DictConfig) -> list[str]:
+    """The run's tables of named terms ({func, params}): its exceptions and each observation group."""
+    groups = OmegaConf.select(run, "level.observations", default=None) or {}
+    tables = ["level.exceptions"] if OmegaConf.select(run, "level.exceptions", default=None) else []
+    return tables + [f"level.observations.{group}" for group, terms in groups.items() if terms]
 
 
 def level_defaults(name: str) -> DictConfig:

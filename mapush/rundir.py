@@ -17,20 +17,23 @@ PACKAGE = Path(__file__).resolve().parent
 SHIPPED_PREFIX = "shipped:"
 SHIPPED_POLICIES = PACKAGE / "policies"
 """The pushing hierarchies shipped in the package (`mapush ship`): `<task>/mid` and `<task>/high` slim run dirs."""
-SHIPPED_GO1 = PACKAGE / "lowlevel" / "pretrained" / "go1"
-"""The shipped Go1 locomotion policy (`lowlevel=go1`'s default)."""
+SHIPPED_LOWLEVEL = PACKAGE / "lowlevel" / "pretrained"
+"""The shipped Go1 locomotion policies, one slim run dir each: `go1` (`lowlevel=go1`'s) and `go1_strong`."""
+SHIPPED_GO1 = SHIPPED_LOWLEVEL / "go1"
 
 
 def shipped_names() -> list[str]:
-    """Names `shipped:NAME` accepts: `go1`, and `<task>` (its high level) or `<task>/mid` for each shipped task."""
+    """Names `shipped:NAME` accepts: each shipped Go1 policy (`go1`, `go1_strong`), and `<task>` (its high level)
+    or `<task>/mid` for each shipped task."""
     tasks = sorted(p.parents[1].name for p in SHIPPED_POLICIES.glob("*/high/config.yaml"))
-    return ["go1", *tasks, *(f"{t}/mid" for t in tasks)]
+    walkers = sorted(p.parent.name for p in SHIPPED_LOWLEVEL.glob("*/config.yaml"))
+    return [*walkers, *tasks, *(f"{t}/mid" for t in tasks)]
 
 
 def shipped_run(name: str) -> Path:
     """The slim run dir of `shipped:NAME`; BadInput naming the shipped ones."""
-    if name == "go1":
-        return SHIPPED_GO1
+    if (SHIPPED_LOWLEVEL / name / "config.yaml").is_file():
+        return SHIPPED_LOWLEVEL / name
     task, _, level = name.partition("/")
     path = SHIPPED_POLICIES / task / (level or "high")
     if not task or level not in ("", "mid", "high") or not (path / "config.yaml").is_file():

@@ -59,7 +59,7 @@ RULES: dict[str, Rule] = {
     "sim.arena_size": _positive("size in m"),
     "sim.floor_friction": _at_least(0.0),
     "sim.robot_contacts": _flag(),
-    "task.collision_distance": _at_least(0.0, " m"),
+    "task.collision_distance": _at_least(0.0, " m"),  # runs made before robot_collision took footprints
     "level.episode_length_s": _positive("number of seconds"),
     "level.success_distance": _positive("distance in m"),
     "level.planner.max_checks": _count(1),
@@ -163,6 +163,19 @@ def check_object(obj) -> None:
             shape = "[x, y, z] full extents" if wanted == 3 else "[radius, height]"
             raise BadInput(f"{where}.size={size!r} is not valid; valid: {wanted} positive numbers, {shape} in m")
         _check_value(f"{where}.mass", part.get("mass"), float, lambda v: v > 0, "a positive mass in kg")
+    if obj.get("mass") is not None:
+        _check_value("task.object.mass", obj.get("mass"), float, lambda v: v > 0, "a positive mass in kg, or null")
+    span = obj.get("mass_range")
+    listed = OmegaConf.is_list(span) or isinstance(span, list | tuple)
+    if span is not None and not (
+        listed and len(span) == 2 and all(_is_number(m) and m > 0 for m in span) and float(span[0]) <= float(span[1])
+    ):
+        shown = list(span) if listed else span
+        raise BadInput(
+            f"task.object.mass_range={shown!r} is not valid; valid: [low, high] kg with 0 < low <= high, or null"
+        )
+    if span is not None and obj.get("mass") is not None:
+        raise BadInput("task.object.mass and task.object.mass_range are both set; valid: one of them, or neither")
     hull = obj.get("hull")
     if hull is not None and polygon_area(hull) <= 1e-9:
         raise BadInput(

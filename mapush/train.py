@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import signal
 import sys
 from pathlib import Path
 
@@ -94,6 +95,9 @@ def export_finished(run_dir: Path) -> Path:
 def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     """Train `run_dir` up to `train.iterations`, from scratch or from `checkpoint`, then export the policy."""
     exit_on_sigterm()
+    # SIGINT cuts a run as Ctrl-C does (saving its last iteration) also where the shell started it in the
+    # background, which leaves SIGINT ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     total = int(cfg["train"]["iterations"])
     env, runner = build(cfg, run_dir, total)
     done = 0

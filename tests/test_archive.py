@@ -12,7 +12,7 @@ from stand_ins import stage_run
 from mapush.experiments.archive import ARCHIVED_FROM, archive_results, load_results
 from mapush.experiments.pipeline import RESULT, SUPERSEDED
 from mapush.report.cost import measured_cost
-from mapush.report.tables import main_table
+from mapush.report.main_table import main_table
 
 
 def _job(sweep, name: str, seed: int, stage_runs: dict, success: float, finished: str) -> None:

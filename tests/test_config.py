@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from mapush.config import apply_overrides, compose_config, group_options, to_plain
@@ -19,7 +21,7 @@ def test_every_option_of_a_group_composes(group):
 
 def test_group_options_are_the_yaml_files():
     assert group_options("critic") == ["global", "local"]
-    assert group_options("lowlevel") == ["go1", "tracker"]
+    assert group_options("lowlevel") == ["go1", "go1_strong", "tracker"]
 
 
 def test_default_config_is_mid_cuboid_two_agents_mappo():
@@ -141,3 +143,14 @@ def test_the_object_friction_follows_the_floor_and_yields_to_a_command_line_valu
     assert floor == [0.3, 0.35]
     typed = to_plain(compose_config(["task=cylinder", "task.object.friction=[0.5,0.6]"]))["task"]["object"]["friction"]
     assert typed == [0.5, 0.6]
+
+
+def test_a_term_a_run_saved_stays_as_the_run_saved_it_not_merged_with_todays():
+    """The shipped cuboid hierarchy was made when robot_collision took the centre distance; today's default takes
+    a footprint tolerance. Its own term, params and all, is what it loads with."""
+    from mapush.config import load_run_config
+
+    cfg = load_run_config(Path(__file__).parents[1] / "mapush" / "policies" / "cuboid" / "mid")
+    term = cfg.level.exceptions.robot_collision
+    assert term.func == "mapush.envs.terminations:robot_collision"
+    assert dict(term.params) == {"distance_m": 0.25}

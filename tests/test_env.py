@@ -105,7 +105,7 @@ def test_robot_dynamics_are_drawn_per_robot_from_the_ranges_and_anew_for_each_ep
 
     def drawn() -> tuple[torch.Tensor, torch.Tensor]:
         gain = torch.as_tensor(env.sim.batch.expand("actuator_gainprm")[:, idx, 0])  # (E, A, 3)
-        force = torch.as_tensor(env.sim.batch.expand("actuator_forcerange")[:, idx[:, 0], 1])  # (E, A)
+        force = torch.as_tensor(env.lowlevel.cap)  # (E, A) each robot's planar cap, N
         return mass / gain[..., 0], force
 
     lag, force = drawn()
@@ -198,8 +198,8 @@ def test_timeout_is_truncated_not_terminated(make_env):
     assert env.episode_step.tolist() == [0] * 4
 
 
-def test_robots_closer_than_the_collision_distance_end_the_episode_as_an_exception(env):
-    # cuboid collision distance 0.25 m: put robot 1 of env 2 on top of robot 0
+def test_robots_whose_footprints_touch_end_the_episode_as_an_exception(env):
+    # put robot 1 of env 2 on top of robot 0
     env.sim.qpos[2, env.lowlevel.qpos_idx[1, :2]] = env.sim.qpos[2, env.lowlevel.qpos_idx[0, :2]]
     _, reward, terminated, _, info = env.step(ZERO)
     assert terminated.tolist() == [False, False, True, False]

@@ -23,7 +23,7 @@ from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
 from mapush.experiments.workers import GRACE_S
 from mapush.logging.mcap_files import summary, training_scalars
 from mapush.logging.metrics import THREADS_TAG
-from mapush.report import tables
+from mapush.report.cells import PAPER
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
@@ -178,6 +178,22 @@ def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for)
     assert iterations_for(cfg_for("level=high", "num_envs=64"), 2.0e6) == 40
 
 
+def test_an_experiments_own_overrides_reach_every_stage_and_its_evaluations_set_each_mass():
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from mapush.config import CONF_DIR
+
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(config_name="sweep", overrides=["experiment=team", "task=cylinder", "agents=4"])
+    plan = stage_plan(cfg)
+    assert [name for name, _ in plan] == ["mid"]  # the team study stops at the mid level
+    assert "task.object.mass_range=[2.0,16.0]" in plan[0][1] and "task.num_agents=4" in plan[0][1]
+    masses = {name: spec.overrides[-1] for name, spec in cfg.experiment.evals.items()}
+    assert masses == {f"m{m}": f"task.object.mass={m:.1f}" for m in (2, 4, 8, 16)}
+
+
 def test_reproduce_plans_every_experiment_and_refuses_an_experiment_override(cli, tmp_path):
     root = tmp_path / "sweeps"
     proc = cli("reproduce", "--dry-run", *SMOKE, f"sweep_root={root}", "--out", tmp_path / "out")
@@ -315,7 +331,8 @@ def test_tables_with_no_runs_are_still_written_with_every_cell_missing(cli, tmp_
     (tmp_path / "runs").mkdir()
     proc = cli("tables", "--runs", tmp_path / "runs", "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
-    assert "0/54 cells filled" in proc.stdout
+    assert "main_quick.{md,tex,csv,json}: 0/60 cells filled" in proc.stdout  # 6 methods and 4 columns beside
+    assert "team_quick.{md,tex,csv,json}: 0/32 cells filled" in proc.stdout  # 2 objects x 4 teams x 4 masses
     assert "\u2014 (77.5 \u00b1 3.0)" in (tmp_path / "out" / "main_quick.md").read_text()
 
 
@@ -329,7 +346,7 @@ def test_a_table_with_more_filled_cells_than_the_runs_give_is_kept_unless_overwr
     assert "main_quick.{md,tex,csv,json}: kept as it was (6 cells filled; these runs give 0; --overwrite" in proc.stdout
     assert (out / "main_quick.md").read_text() == before
     proc = cli("tables", "--runs", tmp_path / "empty", "--out", out, "--table", "main", "--overwrite")
-    assert "0/54 cells filled" in proc.stdout and (out / "main_quick.md").read_text() != before
+    assert "0/60 cells filled" in proc.stdout and (out / "main_quick.md").read_text() != before
 
 
 def test_tables_reject_a_missing_runs_dir(cli, tmp_path):
@@ -338,8 +355,8 @@ def test_tables_reject_a_missing_runs_dir(cli, tmp_path):
 
 
 def test_the_paper_numbers_are_read_not_typed_twice():
-    assert tables.PAPER["main"]["success_rate"]["cuboid"]["ours"] == [77.5, 3.0]
-    assert tables.PAPER["ocb_ablation"]["completion_time_s"]["t40"]["ours_no_ocb"] == [34.9, 0.3]
+    assert PAPER["main"]["success_rate"]["cuboid"]["ours"] == [77.5, 3.0]
+    assert PAPER["ocb_ablation"]["completion_time_s"]["t40"]["ours_no_ocb"] == [34.9, 0.3]
 
 
 @pytest.mark.slow

@@ -87,8 +87,25 @@ def test_go1s_that_overlap_touch_each_other_unless_robot_contacts_is_false(cfg_f
     assert {("robot0", "world"), ("robot1", "world")} <= pairs  # each still stands on the floor
 
 
-def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
+STIFF = {k: OmegaConf.load(CONF_DIR / "lowlevel" / "go1_strong.yaml")[k] for k in ("kp", "kd")}
+"""The stiffer servo of `lowlevel=go1_strong`: it holds the standing pose with zero actions."""
+
+
+def test_at_the_original_s_servo_gains_zero_actions_sag_but_stay_up():
+    """kp 20, kd 0.5 cannot hold the pose against gravity without a policy's offsets (the reason go1_strong has 40):
+    the trunk sinks and pitches, yet it does not fall."""
     model = standalone_spec(**GAINS).compile()
+    data = mujoco.MjData(model)
+    data.qpos[7:] = data.ctrl[:] = go1.default_joint_angles()
+    for _ in range(round(2.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    x, y = data.qpos[4:6]
+    tilt = math.acos(min(1 - 2 * (x * x + y * y), 1.0))
+    assert 0.05 < tilt < 0.8 and data.qpos[2] > 0.15
+
+
+def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
+    model = standalone_spec(**STIFF).compile()
     data = mujoco.MjData(model)
     pose = np.array(go1.default_joint_angles())
     data.qpos[7:] = pose
@@ -260,90 +277,28 @@ def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_ru
     assert env.exception_names[int(info["episode_end"]["exception_kind"][0])] == "robot_tilt"
 
 
-def test_the_lag_fit_recovers_a_known_first_order_response():
-    from mapush.calibrate import LAG_GRID, fit_lag
-
-    dt, lag = 0.02, 0.3
-    t = (np.arange(100) + 1) * dt
-    commanded = np.array([0.25, 0.5])
-    response = commanded[:, None] * (1 - np.exp(-t / lag))
-    nearest = LAG_GRID[np.abs(LAG_GRID - lag).argmin()]
-    assert fit_lag(response, commanded, dt) == pytest.approx(nearest)
-
-
-def test_calibrating_the_tracker_against_itself_recovers_its_lag(cli, tmp_path):
-    from mapush.calibrate import default_config_path
-
-    config = tmp_path / "tracker.yaml"
-    shutil.copy(default_config_path(), config)
-    proc = cli("calibrate", "lowlevel=tracker", "--tasks", "cuboid", "--duration", "1.5", "--settle", "0",
-               "--out", tmp_path / "cal", "--config", config)  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    fitted = json.loads((tmp_path / "cal" / "calibration.json").read_text())["fitted"]
-    tracker = OmegaConf.load(default_config_path())
-    assert fitted["lag"] == pytest.approx(tracker.lag, rel=0.1)
-    assert fitted["yaw_lag"] == pytest.approx(tracker.yaw_lag, rel=0.1)
-    assert json.loads((tmp_path / "cal" / "calibration.json").read_text())["warnings"] == []  # it holds commands
-    assert (tmp_path / "cal" / "calibration.png").stat().st_size > 0
-
-
-def test_a_refused_lag_is_not_what_the_force_limit_is_fitted_with(cli, tmp_path):
-    """A robot of a 1 s lag holds ~70 % of a step after 1.5 s: its lag is refused, and the pushes that fit the force
-    limit run the tracker with the lag that stays in the config, not with the refused one."""
-    from mapush.calibrate import default_config_path
-
-    config = tmp_path / "tracker.yaml"
-    shutil.copy(default_config_path(), config)
-    kept = OmegaConf.load(config)
-    proc = cli("calibrate", "lowlevel=tracker", "lowlevel.lag=1.0", "--tasks", "cuboid", "--duration", "1.5",
-               "--settle", "0", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
-    summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
-    assert summary["fitted"]["lag"] == pytest.approx(1.0, rel=0.1)  # the fit itself finds the slow robot's lag
-    assert [w.split(":")[0] for w in summary["warnings"]] == ["lag"]
-    assert summary["push_lags"] == {"lag": pytest.approx(kept.lag), "yaw_lag": summary["fitted"]["yaw_lag"]}
-    assert OmegaConf.load(config).lag == kept.lag
-
-
 def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli, low_run, tmp_path):
-    from mapush.calibrate import default_config_path, physical_bounds
+    from mapush.calibration.run import default_config_path, physical_bounds
 
     config = tmp_path / "tracker.yaml"
     shutil.copy(default_config_path(), config)
     before = config.read_text().splitlines()
-    proc = cli("calibrate", f"lowlevel.policy={low_run / 'policy.pt'}", "--tasks", "cuboid", "--duration", "1",
-               "--settle", "0.2", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
+    proc = cli("calibrate", f"lowlevel.policy={low_run / 'policy.pt'}", "--duration", "1", "--settle", "0.2",
+               "--repeats", "1", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    fitted = json.loads((tmp_path / "cal" / "calibration.json").read_text())["fitted"]
-    assert set(fitted) == {"lag", "yaw_lag", "max_force"}
-    for key, value in fitted.items():
-        low, high = physical_bounds()[key]
-        assert low <= value <= high
     summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
-    # a 2-iteration policy may not hold its commands: a lag it does not follow is reported, not written
+    for key, value in summary["fitted"].items():
+        if key in physical_bounds():
+            low, high = physical_bounds()[key]
+            assert low <= value <= high
+    # a 2-iteration policy may not hold its commands, push or stand: what it cannot give is reported, not written
     untrusted = {w.split(":")[0] for w in summary["warnings"]}
-    assert untrusted <= {"lag", "yaw_lag"} and proc.stdout.count("warning: ") == len(untrusted)
+    assert untrusted <= {"lag", "yaw_lag", "max_force", "fall"} and proc.stdout.count("warning: ") == len(untrusted)
     after = config.read_text().splitlines()
     changed = [a for b, a in zip(before, after, strict=True) if a != b]
-    assert sorted(line.split(":")[0] for line in changed) == sorted({"lag", "max_force", "yaw_lag"} - untrusted)
+    assert sorted(line.split(":")[0] for line in changed) == sorted(summary["written"])
     assert all("calibrated against go1" in line for line in changed)
-    if "lag" not in untrusted:
-        assert OmegaConf.load(config).lag == pytest.approx(fitted["lag"], rel=1e-3)
-
-
-def test_a_robot_that_does_not_hold_a_command_is_told_apart_from_a_first_order_lag():
-    from mapush.calibrate import STEADY_MIN, steady_fractions, step_commands
-
-    dt, lag = 0.02, 0.2
-    t = (np.arange(150) + 1) * dt
-    commands = step_commands([0.25, 0.5])  # (6, 3): two steps along each axis
-    size = commands.max(1, keepdims=True)  # each row's one nonzero command
-    follows = (size * (1 - np.exp(-t / lag)))[:, :, None] * (commands != 0)[:, None, :]  # (6, T, 3)
-    assert all(share == pytest.approx(1.0, abs=0.01) for share in steady_fractions(follows, commands, 25).values())
-    fades = follows.copy()
-    fades[4:, :, 2] *= np.exp(-t / 1.0)[None, :]  # turns at first, then stops turning (the force-tuned Go1, 11-25)
-    shares = steady_fractions(fades, commands, 25)
-    assert shares["yaw_rate"] < STEADY_MIN and shares["vx"] == pytest.approx(1.0, abs=0.01)
+    assert set(summary["written"]) == {"lag", "yaw_lag", "max_force", "fall"} - untrusted
 
 
 def test_a_turn_fraction_of_the_commands_turns_on_the_spot(cfg_for):
@@ -463,17 +418,8 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
 @pytest.mark.parametrize(
     ("command", "error", "bound"),
     [
-        pytest.param(
-            (0.5, 0.0, 0.0),
-            "velocity_error",
-            0.1,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="the shipped Go1, fine-tuned among teammates and objects (2026-11-27), walks 0.5 m/s "
-                "commands 0.15 m/s short; it turns on the spot and the legged hierarchies gained 5 to 23 points "
-                "with it (results/README.md, 'Go1s taught among teammates')",
-            ),
-        ),
+        ((0.5, 0.0, 0.0), "velocity_error", 0.1),  # go1_strong walked it 0.15 m/s short (a strict xfail until
+        # 2026-11-28); the original-like go1, never trained under a held load, holds it
         ((0.0, 0.0, 0.5), "yaw_rate_error", 0.1),
     ],
     ids=["forward", "turning"],

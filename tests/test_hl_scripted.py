@@ -1,18 +1,12 @@
-"""The hand-written H+L policy of tools/hl_scripted.py, whose success rates results/README.md holds against the
-learned H+L cells: a robot behind the object walks on through it, any other robot to the staging point."""
+"""The hand-written H+L pusher (`NavHighPushEnv.scripted_goals`, the main table's "H+L, path only" column): a robot
+behind the object walks on through it, any other robot to its staging slot, each goal within the action range."""
 
 from __future__ import annotations
-
-import importlib.util
-import math
-from pathlib import Path
 
 import torch
 from stand_ins import stand_in_env
 
-SPEC = importlib.util.spec_from_file_location("hl_scripted", Path(__file__).parents[1] / "tools" / "hl_scripted.py")
-hl_scripted = importlib.util.module_from_spec(SPEC)
-SPEC.loader.exec_module(hl_scripted)
+from mapush.envs.nav_high import NavHighPushEnv
 
 
 def test_a_robot_behind_pushes_on_and_one_in_front_walks_around_to_the_staging_point():
@@ -24,13 +18,11 @@ def test_a_robot_behind_pushes_on_and_one_in_front_walks_around_to_the_staging_p
         subgoal_xy=torch.tensor([[0.0, 2.0]]),
         target_xy=torch.tensor([[0.0, 10.0]]),
         num_agents=2,
-        cfg={"level": {"robot_goal_range_m": 1.5}},
+        cfg={"level": {"robot_goal_range_m": 1.5, "scripted": {"reach_m": 0.6, "behind_m": 1.4}}},
     )
-    actions = hl_scripted.scripted_actions(env, reach=0.6, behind=1.4)
-    # robot 0: 2 m on along +y = target-frame (2, 0), over the 1.5 m range and clipped: (1, 0)
-    assert torch.allclose(actions[0, 0], torch.tensor([1.0, 0.0]), atol=1e-6)
-    # robot 1: its staging slot is 1.4 m behind the object and +0.3 m to the side (side = u turned left = world
-    # -x): world (-0.3, -1.4); from (0, 2) that is (-0.3, -3.4) in the world, (-3.4, 0.3) in the target frame,
-    # over 1.5 and clipped: (-1, 0.2)
-    assert torch.allclose(actions[0, 1], torch.tensor([-1.0, 0.3 / 1.5]), atol=1e-6)
-    assert math.isclose(float(actions.abs().max()), 1.0)
+    goals = NavHighPushEnv.scripted_goals(env)
+    # robot 0: 2 m on along +y, clipped to the 1.5 m range: from (0, -1) to (0, 0.5)
+    assert torch.allclose(goals[0, 0], torch.tensor([0.0, 0.5]), atol=1e-6)
+    # robot 1: its staging slot is 1.4 m behind the object and 0.3 m to the side (u turned left = world -x): world
+    # (-0.3, -1.4), 3.4 m back from (0, 2); the range clips the 3.4 to 1.5: (-0.3, 0.5)
+    assert torch.allclose(goals[0, 1], torch.tensor([-0.3, 0.5]), atol=1e-6)

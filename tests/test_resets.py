@@ -109,7 +109,11 @@ def test_agent_counts_that_fit_the_ring_pass(cfg_for, num_agents):
     task = cfg_for("task=cuboid")["task"]
     task["num_agents"] = num_agents
     assert ring_capacity(task["spawn"]["agent_radius"][0], 0.75) == 9
-    assert check_agent_count(task, 0.75) is None  # no BadInput
+    check_agent_count(task, 0.75)  # no BadInput, and their layouts place them all, apart
+    layout = sample_mid_layout(torch.Generator().manual_seed(0), 16, task, 0.75)
+    assert layout["robot_xy"].shape == (16, num_agents, 2)
+    if num_agents > 1:
+        assert pairwise_min(layout["robot_xy"]).min().item() >= 0.75 - 1e-5
 
 
 @pytest.mark.parametrize("num_agents", [0, 10, 40])
@@ -141,3 +145,22 @@ def test_fallback_rotates_the_spread_at_random(monkeypatch):
     offsets = sample_ring(torch.Generator().manual_seed(3), 64, 3, (1.2, 1.3), 0.75)
     first_angle = torch.atan2(offsets[:, 0, 1], offsets[:, 0, 0])
     assert first_angle.std().item() > 0.5
+
+
+def test_an_object_mass_range_is_drawn_per_episode_and_applied_to_the_simulation():
+    import numpy as np
+
+    from mapush.config import compose_config, to_plain
+    from mapush.envs.mid import MidPushEnv
+    from mapush.sim.scene import OBJECT_BODY
+
+    cfg = to_plain(compose_config(["debug=smoke", "task=cuboid", "num_envs=64", "task.object.mass_range=[2.0,16.0]"]))
+    env = MidPushEnv(cfg, num_envs=64)
+    env.reset(np.arange(64))
+    mass = env.sim.batch.expand("body_mass")[:, env.sim.model.body(OBJECT_BODY).id]
+    assert mass.min() >= 2.0 and mass.max() <= 16.0 and mass.max() / mass.min() > 3  # spread over the range
+    assert 0.5 < float(np.mean(mass < 8.0)) < 0.85  # log-uniform: 2/3 below 8 kg (uniform: 3/7)
+    fixed = to_plain(compose_config(["debug=smoke", "task=cuboid", "num_envs=2", "task.object.mass=8.0"]))
+    env = MidPushEnv(fixed, num_envs=2)
+    env.reset(np.arange(2))
+    assert env.sim.batch.expand("body_mass")[:, env.sim.model.body(OBJECT_BODY).id].tolist() == [8.0, 8.0]

@@ -1,5 +1,5 @@
-"""`robot_contact`: robots that touch end an episode on every low level (the centre distance of
-`robot_collision`, 0.25 m, is narrower than the tracker's footprint and never fires)."""
+"""`robot_contact`, the levels' `robot_collision`: robots that touch end an episode on every low level (the
+original's centre distance, 0.25 m, is narrower than the tracker's footprint and never fires)."""
 
 from __future__ import annotations
 
@@ -50,9 +50,10 @@ def test_robots_side_by_side_touch_where_their_centres_are_further_than_robot_co
 
 
 @pytest.mark.parametrize("lowlevel", ["tracker", "go1"])
-def test_two_robots_driven_into_each_other_touch(lowlevel):
+def test_two_robots_driven_into_each_other_end_the_episode_with_robot_collision(lowlevel):
     """Two robots 2 m apart, facing each other, far from the object, both commanded forward at full speed: their
-    footprints touch within 4 s; their centres never come within robot_collision's 0.25 m."""
+    footprints touch within 4 s and the mid level ends the episode with `robot_collision`; their centres never come
+    within the original's 0.25 m."""
     cfg = to_plain(compose_config(["debug=smoke", f"lowlevel={lowlevel}", "num_envs=1", "level.episode_length_s=20"]))
     env = MidPushEnv(cfg, num_envs=1)
     layout = {
@@ -71,7 +72,8 @@ def test_two_robots_driven_into_each_other_touch(lowlevel):
         env.step(forward)
         centres = torch.linalg.vector_norm(env.state.robot_xy[0, 0] - env.state.robot_xy[0, 1]).item()
         assert centres > 0.25
-        if terminations.robot_contact(env, TOLERANCE).item():
+        if env.exception.any():
             touched_at = step * env.dt
+            assert env.exception_names[int(env.exception_kind[0])] == "robot_collision"  # (the env has reset)
             break
     assert touched_at is not None and touched_at > 0.5  # they had 2 m to cover

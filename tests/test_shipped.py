@@ -14,8 +14,11 @@ from omegaconf import OmegaConf
 
 from mapush.eval.numerics import computes_alike
 from mapush.rl.policy import load_policy
-from mapush.rundir import PACKAGE, shipped_names, shipped_run
+from mapush.rundir import PACKAGE, SHIPPED_LOWLEVEL, shipped_names, shipped_run
 from mapush.ship import without_machine_paths
+
+HIERARCHIES = [n for n in shipped_names() if not (SHIPPED_LOWLEVEL / n).is_dir() and not n.endswith("/mid")]
+"""The shipped pushing hierarchies by their high level (not the locomotion policies, not the mid levels)."""
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +73,7 @@ def test_every_shipped_policy_loads_and_runs_one_episode_without_writing_into_th
     assert {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")} == before
 
 
-@pytest.mark.parametrize("name", [n for n in shipped_names() if n != "go1" and not n.endswith("/mid")])
+@pytest.mark.parametrize("name", HIERARCHIES)
 def test_a_shipped_hierarchy_with_another_agent_count_is_refused(cli, name):
     proc = cli("eval", f"shipped:{name}", "task.num_agents=5")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
@@ -98,7 +101,7 @@ def test_the_noise_bound_accepts_one_flipped_episode_and_refuses_a_broken_policy
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [n for n in shipped_names() if n != "go1" and not n.endswith("/mid")])
+@pytest.mark.parametrize("name", HIERARCHIES)
 def test_a_shipped_hierarchy_reproduces_its_recorded_evaluation(cli, name, tmp_path):
     """`mapush eval shipped:NAME` on seed 0 gives what `mapush ship` recorded for seed 0: bit for bit on a machine
     that computes alike (same libraries, kernels and numerics hash), within the evaluation's noise on another."""

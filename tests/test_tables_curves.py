@@ -4,6 +4,7 @@ the curves plot; from fixture job results with hand-made curves."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -124,7 +125,7 @@ def test_tables_can_write_one_table_and_refuse_an_unknown_one(cli, tmp_path, cur
 
 
 def test_the_main_tables_findings_from_hand_made_results():
-    from mapush.report.tables import PAPER, _main_findings
+    from mapush.report.main_table import PAPER, _main_findings
 
     def job(method, seed, evals):
         ev = {k: {"success_rate": sr, "completion_time": ct, "timeout_s": 160.0} for k, (sr, ct) in evals.items()}
@@ -136,6 +137,8 @@ def test_the_main_tables_findings_from_hand_made_results():
         job("sa", 0, {"main": (0.10, 0.90), "go1": (0.40, 0.8)}),
         job("sa", 1, {"main": (0.20, 0.90), "go1": (0.90, 0.4)}),
         job("ml", 0, {"main": (0.80, 0.90)}),
+        job("hl", 0, {"main": (0.0, 1.0), "path_only": (0.45, 0.80)}),  # the hand-written pusher: 45 %
+        job("hl_ft", 0, {"main": (0.50, 0.70)}),
     ]
     lines = _main_findings(results, PAPER["main"], "cuboid")
     # Ours: S.R. (80 + 70) / 2 = 75.0 < 77.5; C.T. (0.5 + 0.6) / 2 = 0.55 <= 0.66
@@ -147,20 +150,30 @@ def test_the_main_tables_findings_from_hand_made_results():
         "Cuboid: Ours' successes take 64 s on average, the paper's 90 s (from S.R. and C.T., a failure counting as "
         "the 160 s timeout)"
     )
-    assert lines[2] == "Cuboid: baselines below Ours: SA; at or above: M+L"
-    assert lines[3] == "Cuboid: the learned high level does not beat path following (-5.0 points of S.R.)"  # 75 - 80
-    assert lines[4] == "Cuboid: on legged Go1s Ours loses 10.0 points of S.R., within 10 points"  # 75 - 65
+    assert lines[2] == "Cuboid: baselines below Ours: SA, H+L, H+L FT; at or above: M+L"
+    # SA beside the drag (4 kg x 9.81 x the friction 0.3-0.35: 11.8-13.7 N) and one robot's capacity
+    assert re.fullmatch(
+        r"Cuboid: SA 15\.0 % is below Ours; the object's drag 11\.8-13\.7 N against one robot's capacity "
+        r"[0-9.]+ N: one robot (can|cannot) move it alone",
+        lines[3],
+    )
+    assert lines[4:6] == [
+        "Cuboid: H+L 0.0 % is below the hand-written pusher's 45.0 % in its action space (H+L, path only)",
+        "Cuboid: H+L FT 50.0 % is at or above the hand-written pusher's 45.0 % in its action space (H+L, path only)",
+    ]
+    assert lines[6] == "Cuboid: the learned high level does not beat path following (-5.0 points of S.R.)"  # 75 - 80
+    assert lines[7] == "Cuboid: on legged Go1s Ours loses 10.0 points of S.R., within 10 points"  # 75 - 65
     # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
-    assert lines[5:] == ["Cuboid: on legged Go1s SA reaches 65.0 % of S.R., at or above Ours' 65.0 %"]
+    assert lines[8:] == ["Cuboid: on legged Go1s SA reaches 65.0 % of S.R., at or above Ours' 65.0 %"]
     results[3]["evals"]["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
-    assert _main_findings(results, PAPER["main"], "cuboid")[5] == (
+    assert _main_findings(results, PAPER["main"], "cuboid")[8] == (
         "Cuboid: on legged Go1s SA reaches 60.0 % of S.R., below Ours' 65.0 %"
     )
     assert _main_findings(results, PAPER["main"], "tblock") == []
 
 
 def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
-    from mapush.report.tables import PAPER, _main_findings
+    from mapush.report.main_table import PAPER, _main_findings
 
     def job(seed, go1_sr, robot_tilt, collision):
         go1 = {
@@ -182,7 +195,7 @@ def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
 
 def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
     from mapush.report.formats import Cell
-    from mapush.report.tables import _reference_mid_finding
+    from mapush.report.scale_table import _reference_mid_finding
 
     def rows(mid):  # the 3-robot row: hierarchy S.R., C.T., mid-level S.R.
         return [(["3"], [Cell([50.0]), Cell([0.5]), Cell(mid)])]
@@ -206,7 +219,7 @@ def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
 
 
 def test_a_job_with_one_stale_evaluation_or_stage_marks_only_the_cells_made_of_it():
-    from mapush.report.tables import _collect
+    from mapush.report.cells import collect as _collect
 
     def job(name: str, reason: str) -> dict:
         stages = {"mid": "stages/m1/mid/run", "high": "stages/h1/high/run"}
@@ -261,7 +274,7 @@ def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli
 
 
 def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made_results():
-    from mapush.report.tables import scale_table
+    from mapush.report.scale_table import scale_table
 
     # (robots: hierarchy S.R. per seed, C.T., mid level S.R. per seed); 6 robots lie outside the paper's figure
     made = {
@@ -296,3 +309,29 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
     tied = [{**r, "evals": {**r["evals"], "main": main}} if r["num_agents"] == 6 else r for r in results]
     best = "Best robot count here: 3 (85.0 \u00b1 5.0 % S.R.) and 6 (85.0 \u00b1 0.0 % S.R.), tied"
     assert scale_table(tied, "quick").findings[0] == best
+
+
+def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robots_that_push(tmp_path):
+    from mapush.report.physics import object_drag, one_robot_capacity
+    from mapush.report.team_table import team_plot, team_table
+
+    # cuboid: one robot pushes 2 and 4 kg (90 %), two robots 8 kg, nobody 16 kg; the cylinder has no job yet
+    rates = {1: (0.9, 0.9, 0.1, 0.0), 2: (0.9, 0.9, 0.8, 0.2), 3: (0.9, 0.9, 0.9, 0.3), 4: (0.8, 0.8, 0.9, 0.4)}
+    results = [
+        {"job_dir": f"agents={n},seed={seed}", "table": "team", "variant": "quick", "num_agents": n, "seed": seed,
+         "task": "cuboid", "evals": {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 4, 8, 16), made, strict=True)}}
+        for n, made in rates.items() for seed in (0, 1)
+    ]  # fmt: skip
+    table = team_table(results, "quick")
+    assert table.columns == ["2 kg", "4 kg", "8 kg", "16 kg"]
+    cells = dict((tuple(labels), cells) for labels, cells in table.rows)
+    low, high = object_drag("cuboid", ["task.object.mass=8"])
+    margin = (low + high) / 2 / (2 * one_robot_capacity())  # two robots at 8 kg
+    assert cells[("cuboid", "2")][2].text() == f"80.0 \u00b1 0.0 [margin {margin:.2f}]"
+    assert cells[("cylinder", "3")][0].text().startswith("\u2014")  # no job: an empty cell
+    assert "cylinder / 1 robots: no finished job" in table.missing
+    line = next(f for f in table.findings if f.startswith("cuboid:"))
+    assert line.startswith("cuboid: the fewest robots reaching 50 % S.R. by mass: 2 kg: 1 (margin ")
+    assert "8 kg: 2 (margin " in line and line.endswith("16 kg: none of 4")
+    team_plot(table, tmp_path / "team.png")
+    assert (tmp_path / "team.png").stat().st_size > 0

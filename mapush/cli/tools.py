@@ -93,38 +93,52 @@ def plan(
 @app.command(context_settings=PASS_THROUGH)
 def calibrate(
     ctx: typer.Context,
-    tasks: str = typer.Option("cuboid,tblock,cylinder", "--tasks", help="Objects to push, comma-separated."),
     steps: str = typer.Option("0.25,0.5", "--steps", help="Step command sizes (m/s, rad/s), comma-separated."),
     settle: float = typer.Option(1.0, "--settle", help="Seconds of standing before each step."),
     duration: float = typer.Option(3.0, "--duration", help="Seconds each step command is held."),
+    repeats: int = typer.Option(6, "--repeats", help="Starts per drag and per held load."),
+    seed: int = typer.Option(0, "--seed", help="Draws the starts of the capacity and fall sweeps."),
     out: Path | None = typer.Option(None, "--out", help="Output dir (default runs/calibrate/<time>)."),
-    config: Path | None = typer.Option(None, "--config", help="The tracker config to update (default conf's)."),
+    config: Path | None = typer.Option(
+        None,
+        "--config",
+        help="A tracker config to update in place (e.g. mapush/conf/lowlevel/tracker.yaml of a checkout); default: "
+        "OUT/tracker.yaml, the package's with the measured values.",
+    ),
 ) -> None:
-    """Fit the tracker's lag and force limit to the legged Go1's step responses, free and pushing each object.
+    """Measure a legged low level (its lags, push capacity and falls under load) and write the tracker's values.
 
     Overrides choose the robot measured: `lowlevel.policy=RUN/policy.pt` (default: lowlevel=go1, shipped policy).
     """
     import datetime
 
-    from mapush.calibrate import calibrate as run_calibration
-    from mapush.calibrate import default_config_path
-    from mapush.config import group_options
+    from mapush.atomic import write_text
+    from mapush.calibration.run import calibrate as run_calibration
+    from mapush.calibration.run import default_config_path
 
-    task_list = [t for t in tasks.split(",") if t]
-    unknown = sorted(set(task_list) - set(group_options("task")))
-    if unknown or not task_list:
-        raise BadInput(f"--tasks {tasks!r}: unknown {unknown}; valid: {', '.join(group_options('task'))}")
     step_sizes = number_list(steps, "--steps", kind=float, minimum=1e-3)
     if settle < 0 or duration <= 0:
         raise BadInput(f"--settle {settle} / --duration {duration}: valid: settle >= 0, duration > 0 seconds")
+    if repeats < 1:
+        raise BadInput(f"--repeats {repeats}: valid: 1 or more")
     overrides = list(ctx.args)
     reference = overrides if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
     stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     out_dir = out or Path("runs") / "calibrate" / stamp
-    config_path = config or default_config_path()
-    summary = run_calibration(reference, task_list, step_sizes, settle, duration, out_dir, config_path)
-    fitted = ", ".join(f"{k} {v:.4g}" for k, v in summary["fitted"].items())
-    print(f"fitted {fitted} -> {config_path}")
+    if config is not None and not config.is_file():
+        raise BadInput(f"--config {config}: no such file; valid: a tracker config (e.g. {default_config_path()})")
+    if config is None:  # the package's own config stays as it is: the measured copy goes beside the record
+        out_dir.mkdir(parents=True, exist_ok=True)
+        config_path = out_dir / "tracker.yaml"
+        write_text(config_path, default_config_path().read_text())
+    else:
+        config_path = config
+    summary = run_calibration(reference, step_sizes, settle, duration, out_dir, config_path, repeats, seed)
+    written = ", ".join(
+        f"{k} {v:.4g}" if not isinstance(v, dict) else f"{k} {v}" for k, v in summary["written"].items()
+    )
+    print(f"capacity {summary['capacity_n']} N, fall curve {summary['fall_curve']}")
+    print(f"wrote {written} -> {config_path}")
     for warning in summary["warnings"]:
         print(f"warning: {warning}")
     print(out_dir)

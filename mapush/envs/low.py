@@ -36,6 +36,7 @@ import torch
 
 from mapush.envs.core import EnvCore
 from mapush.errors import BadInput
+from mapush.lowlevel import backend_name
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import Go1, proprioception, rotate_into_body, rotate_into_world
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
@@ -67,7 +68,8 @@ def locomotion_model(cfg: dict) -> mujoco.MjModel:
     """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep, and the loads and the
     teammates where a run asks for them (`load_fractions`, `teammate_fractions`). The Go1's 12 actuators come
     first."""
-    spec = standalone_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], cfg["sim"]["timestep"])
+    robot = cfg["lowlevel"]
+    spec = standalone_spec(robot["kp"], robot["kd"], cfg["sim"]["timestep"], robot.get("torque_limits"))
     load = cfg["level"]["randomize"].get("load")  # runs made before the key have none
     if any(load_fractions(cfg)):
         box, cylinder = load["box_size_m"], load["cylinder_size_m"]
@@ -80,7 +82,7 @@ def locomotion_model(cfg: dict) -> mujoco.MjModel:
             body.add_freejoint()
             body.add_geom(type=kind, size=size, mass=1.0, friction=[LOAD_GEOM_FRICTION, 0.005, 0.0001])
     for k in range(teammate_count(cfg)):
-        mate = go1_spec(cfg["lowlevel"]["kp"], cfg["lowlevel"]["kd"], foot_friction=cfg["lowlevel"]["foot_friction"])
+        mate = go1_spec(robot["kp"], robot["kd"], robot.get("torque_limits"), foot_friction=robot["foot_friction"])
         spec.attach(mate, frame=spec.worldbody.add_frame(), prefix=MATE_PREFIX.format(k))
     return spec.compile()
 
@@ -421,7 +423,7 @@ class LocomotionEnv(EnvCore):
     @classmethod
     def validate(cls, cfg: dict) -> None:
         """Check the robot and the terms before anything is built."""
-        if cfg["lowlevel"]["name"] != "go1":
+        if backend_name(cfg["lowlevel"]) != "go1":
             raise BadInput(f"level=low trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1")
         cls.check_terms(cfg)
 

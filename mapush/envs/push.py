@@ -9,7 +9,7 @@ import torch
 from mapush.envs.core import EnvCore
 from mapush.envs.resets import check_agent_count
 from mapush.errors import BadInput
-from mapush.lowlevel import BACKENDS
+from mapush.lowlevel import BACKENDS, backend_name, backend_of
 from mapush.planning.geometry import corners
 from mapush.sim.push import PushSim, PushState
 from mapush.sim.shapes import object_hull
@@ -36,7 +36,7 @@ class PushEnv(EnvCore):
         obstacles = cfg["level"].get("obstacles")  # the long-horizon map's blocks; none at the mid level
         blocks = {"obstacles": obstacles["count"], "obstacle_size": obstacles["size"]} if obstacles else {}
         self.num_obstacles = blocks.get("obstacles", 0)
-        self.lowlevel = BACKENDS[cfg["lowlevel"]["name"]](cfg["lowlevel"])
+        self.lowlevel = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
         sim = PushSim(cfg["sim"], task, self.lowlevel, E, **blocks)
         super().__init__(cfg, sim, E, task["num_agents"], rows, sim.dt * decision_steps)
         self.sim_dt = sim.dt
@@ -49,11 +49,13 @@ class PushEnv(EnvCore):
         self.obstacle_corners = torch.zeros(E, self.num_obstacles, 4, 2)  # their footprints, fixed per episode
         self.varied = not evaluation and bool(cfg["lowlevel"].get("randomize"))
         self.dynamics_rng = np.random.default_rng(int(cfg["seed"]))
+        self.lowlevel.seed(int(cfg["seed"]))
 
     def seed(self, seed: int) -> None:
         """Reseed the start draws, the robots' dynamics included."""
         super().seed(seed)
         self.dynamics_rng = np.random.default_rng(int(seed))
+        self.lowlevel.seed(int(seed))
 
     def reset(self, ids: np.ndarray) -> None:
         """Start new episodes in envs `ids`; in training, with robot dynamics drawn anew (`lowlevel.randomize`)."""
@@ -71,9 +73,9 @@ class PushEnv(EnvCore):
     @classmethod
     def validate(cls, cfg: dict) -> None:
         """Check a config before anything is built or written: low-level backend, agent count, the terms."""
-        if cfg["lowlevel"]["name"] not in BACKENDS:
-            raise BadInput(f"unknown lowlevel {cfg['lowlevel']['name']!r}; valid: {', '.join(BACKENDS)}")
-        BACKENDS[cfg["lowlevel"]["name"]].check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
+        if backend_name(cfg["lowlevel"]) not in BACKENDS:
+            raise BadInput(f"unknown lowlevel backend {backend_name(cfg['lowlevel'])!r}; valid: {', '.join(BACKENDS)}")
+        backend_of(cfg["lowlevel"]).check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
         check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
         cls.check_terms(cfg)
 

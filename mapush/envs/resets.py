@@ -37,6 +37,19 @@ def uniform(gen: torch.Generator, low: float, high: float, *shape: int) -> torch
     return low + (high - low) * torch.rand(*shape, generator=gen)
 
 
+def object_masses(gen: torch.Generator, n: int, obj: dict) -> dict[str, torch.Tensor]:
+    """The object's mass of `n` episodes as the layout's `mass` (kg), where the task sets one: `mass_range` drawn
+    log-uniformly (training over a range of masses), or `mass` fixed; none (the parts' own masses) otherwise.
+    Drawn after every other value of the layout, so that a task without it draws as it always did."""
+    span, fixed = obj.get("mass_range"), obj.get("mass")
+    if span is not None:
+        low, high = math.log(float(span[0])), math.log(float(span[1]))
+        return {"mass": torch.exp(uniform(gen, low, high, n))}
+    if fixed is not None:
+        return {"mass": torch.full((n,), float(fixed))}
+    return {}
+
+
 def sample_ring(
     gen: torch.Generator, n: int, num_agents: int, radius: tuple[float, float], min_distance: float
 ) -> torch.Tensor:
@@ -80,7 +93,7 @@ def sample_mid_layout(gen: torch.Generator, n: int, task_cfg: dict, min_distance
 
     Returns:
         `object_xy` (n, 2), `object_yaw` (n,), `subgoal_xy` (n, 2), `robot_xy` (n, A, 2), `robot_yaw` (n, A),
-        `friction` (n,).
+        `friction` (n,), and `mass` (n,) where the task sets one (`object_masses`).
     """
     spawn, obj = task_cfg["spawn"], task_cfg["object"]
     start = torch.tensor(obj["start_xy"], dtype=torch.float32).expand(n, 2)
@@ -95,7 +108,7 @@ def sample_mid_layout(gen: torch.Generator, n: int, task_cfg: dict, min_distance
         "robot_xy": start.unsqueeze(1) + ring,
         "robot_yaw": uniform(gen, 0.0, 2 * math.pi, n, task_cfg["num_agents"]),
         "friction": uniform(gen, *obj["friction"], n),
-    }
+    } | object_masses(gen, n, obj)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -136,7 +149,7 @@ def sample_high_layout(gen: torch.Generator, n: int, cfg: dict) -> dict[str, tor
         "robot_xy": start.unsqueeze(1) + ring,
         "robot_yaw": uniform(gen, 0.0, 2 * math.pi, n, task["num_agents"]),
         "friction": uniform(gen, *task["object"]["friction"], n),
-    }
+    } | object_masses(gen, n, task["object"])
 
 
 def _in_area(gen: torch.Generator, n: int, area: dict) -> torch.Tensor:

@@ -17,15 +17,16 @@ def diverged(env) -> torch.Tensor:
 
 
 def robot_collision(env, distance_m: float) -> torch.Tensor:
-    """Two robot centres closer than `distance_m`."""
+    """Two robot centres closer than `distance_m`: the original's check, which runs made before 2026-11-28 name
+    (the levels' `robot_collision` is `robot_contact` now)."""
     pair = env.state.robot_distance + torch.eye(env.num_agents) * 1e9
     return (pair < distance_m).flatten(1).any(-1)
 
 
 def robot_contact(env, tolerance_m: float) -> torch.Tensor:
     """Two robots' footprints (`lowlevel.size`: length x width, at their poses) within `tolerance_m` of each
-    other: robots that touch. Unlike `robot_collision`'s centre distance (0.25 m, as the original's, which the
-    tracker's 0.28 m-wide footprint never reaches), this can happen to every low level."""
+    other: robots that touch, the levels' `robot_collision`. Unlike the original's centre distance (0.25 m, which
+    the tracker's 0.28 m-wide footprint never reaches), this can happen on every low level."""
     s = env.state
     length, width = env.cfg["lowlevel"]["size"][:2]
     boxes = rectangles(s.robot_xy, s.robot_yaw, length, width)  # (E, A, 4, 2)

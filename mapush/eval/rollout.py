@@ -23,7 +23,7 @@ from mapush.eval.numerics import machine_record
 from mapush.levels import build_for_eval, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
-from mapush.lowlevel import BACKENDS
+from mapush.lowlevel import backend_of
 from mapush.planning.paths import length as path_length
 from mapush.rewards.manager import RewardManager
 from mapush.rundir import PACKAGE, resolve_checkpoint
@@ -223,7 +223,7 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
         "machine": machine_record(),  # whether a reproduction can expect these bits (docs/reproducibility.md)
     }
     lowlevel, level = cfg.get("lowlevel"), cfg.get("level", {}).get("name")
-    walker = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel) if lowlevel else None
+    walker = backend_of(lowlevel).policy_fingerprint(lowlevel) if lowlevel else None
     if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
     # figures only some levels record, averaged over seeds: the high level's reference path length (how far it had

@@ -35,7 +35,7 @@ from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
 from mapush.experiments.stages import STAGE_REF
-from mapush.lowlevel import BACKENDS
+from mapush.lowlevel import backend_of
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import PACKAGE, checkpoints, find_runs, is_complete
 
@@ -54,8 +54,9 @@ STAGE_BUDGET_KEYS = ("num_envs", "env_steps")
 def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
     """The stages to train, up to the evaluated one, each with every override it is composed with.
 
-    Order: the method's common overrides, the stage's, the job's task / seed / agents / extra overrides, then the
-    budget's num_envs (env-steps become `train.iterations` in `train_stage`).
+    Order: the method's common overrides, the experiment's (`overrides`, where it has them), the stage's, the job's
+    task / seed / agents / extra overrides, then the budget's num_envs (env-steps become `train.iterations` in
+    `train_stage`).
     """
     method, experiment = cfg.method, cfg.experiment
     names = list(method.stages)
@@ -90,7 +91,8 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
         job.append(f"task.num_agents={cfg.agents}")
     plan = []
     for name in trained:
-        overrides = [*method.overrides, *method.stages[name], *job, *cfg.overrides]
+        shared = experiment.get("overrides", [])  # every stage of every job of this experiment
+        overrides = [*method.overrides, *shared, *method.stages[name], *job, *cfg.overrides]
         overrides.append(f"num_envs={stage_budget(cfg, name).num_envs}")
         plan.append((name, overrides))
     return plan
@@ -411,7 +413,7 @@ def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str, plan
     else:
         stage_cfg = OmegaConf.create(next(p.cfg for p in planned if p.name == stage))
     lowlevel = to_plain(apply_overrides(stage_cfg, eval_overrides(spec)))["lowlevel"]
-    now = BACKENDS[lowlevel["name"]].policy_fingerprint(lowlevel)
+    now = backend_of(lowlevel).policy_fingerprint(lowlevel)
     # the policy's hash says which it is; its file's path moves with the checkout
     return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
 

@@ -54,6 +54,10 @@ UNSET_LATER_KEYS = {
     "sim.robot_contacts": True,
     "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (T-block, cylinder, OCB cuboid)
     "level.planner.max_checks": 50000,  # the planner's work budget; plans before it ended on first solutions too
+    "lowlevel.force_cap": "axes",  # the tracker's cap on each world axis, as before the planar cap
+    "lowlevel.fall": None,  # a tracker that cannot fall, as before the load-to-fall model
+    "task.object.mass": None,  # the object's mass set apart from its parts' (the team study)
+    "task.object.mass_range": None,  # the object's mass drawn per episode (the team study)
 }
 """Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
 stays out of the identity (and so does a parent it leaves empty), so the stages trained before it existed keep

@@ -9,4 +9,14 @@ from mapush.lowlevel.go1 import Go1
 from mapush.lowlevel.tracker import Tracker
 
 BACKENDS = {"tracker": Tracker, "go1": Go1}
-"""Registry: the `lowlevel.name` of a config -> its backend class."""
+"""Registry: a low-level config's backend (`backend_name`) -> its class."""
+
+
+def backend_name(lowlevel: dict) -> str:
+    """The backend a low-level config runs on: its `backend`, or else its `name` (`lowlevel=go1_strong` is a Go1)."""
+    return lowlevel.get("backend") or lowlevel["name"]
+
+
+def backend_of(lowlevel: dict):
+    """The backend class a low-level config runs on."""
+    return BACKENDS[backend_name(lowlevel)]

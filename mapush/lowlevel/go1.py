@@ -5,8 +5,9 @@ function the locomotion env trains on), runs the frozen locomotion policy on all
 joint targets for the PD servos, which run at every 5 ms physics step. Robots can fall (`tilt`), which the pushing
 levels count as an exception.
 
-The policy is a TorchScript `policy.pt` exported by `mapush train level=low`: `lowlevel.policy=PATH`, or null for
-the one shipped in the package (`mapush/lowlevel/pretrained/go1/`, a slim run dir written by `mapush ship`).
+The policy is a TorchScript `policy.pt` exported by `mapush train level=low`: `lowlevel.policy=PATH`, or
+`shipped:NAME` of one shipped in the package (`mapush/lowlevel/pretrained/NAME/`, slim run dirs written by
+`mapush ship`), or null for `shipped:go1` (`policy_of`).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import torch
 from mapush.errors import BadInput, first_line
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec
-from mapush.rundir import SHIPPED_GO1
+from mapush.rundir import SHIPPED_GO1, SHIPPED_LOWLEVEL, SHIPPED_PREFIX, shipped_run
 
 PRETRAINED_RUN = SHIPPED_GO1
 """The shipped locomotion policy's run dir: its config, actor checkpoint, TorchScript policy and eval."""
@@ -73,9 +74,27 @@ def proprioception(
     )
 
 
+def policy_of(cfg: dict) -> str:
+    """The locomotion policy a Go1 config names: its `policy`, or the shipped one it was made for when null: a
+    config without `torque_limits` predates the original-like Go1 and ran the stronger one (`shipped:go1_strong`)."""
+    if cfg.get("policy"):
+        return str(cfg["policy"])
+    return f"{SHIPPED_PREFIX}go1" if "torque_limits" in cfg else f"{SHIPPED_PREFIX}go1_strong"
+
+
 def locomotion_policy_file(path: str | Path | None) -> Path:
-    """The file of the locomotion policy at `path` (None: the shipped one); BadInput when there is none."""
-    target = Path(path) if path else PRETRAINED
+    """The file of the locomotion policy at `path` (a file, a run dir, `shipped:NAME` of a shipped Go1 policy, or
+    None: `shipped:go1`); BadInput when there is none."""
+    if str(path or "").startswith(SHIPPED_PREFIX):
+        name = str(path)[len(SHIPPED_PREFIX) :]
+        walkers = sorted(p.parent.name for p in SHIPPED_LOWLEVEL.glob("*/policy.pt"))
+        if name not in walkers:
+            raise BadInput(
+                f"lowlevel.policy={path}: no such shipped Go1 policy; valid: shipped:{', shipped:'.join(walkers)}"
+            )
+        target = shipped_run(name)
+    else:
+        target = Path(path) if path else PRETRAINED
     if target.is_dir():
         target = target / "policy.pt"
     if not target.is_file():
@@ -108,26 +127,33 @@ class Go1:
     @staticmethod
     def check(cfg: dict) -> None:
         """BadInput unless the config's locomotion policy exists and loads (checked before anything is built)."""
-        load_locomotion_policy(cfg["policy"])
+        load_locomotion_policy(policy_of(cfg))
 
     @staticmethod
     def policy_fingerprint(cfg: dict) -> dict:
         """Which locomotion policy walks the robots: its file and the first 16 hex digits of its SHA-256 (an
         evaluation records it; a sweep re-evaluates when the shipped policy is replaced)."""
-        path = locomotion_policy_file(cfg["policy"])
+        path = locomotion_policy_file(policy_of(cfg))
         return {"file": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()[:16]}
 
     def __init__(self, cfg: dict):
         self.cfg = cfg
-        self.policy = load_locomotion_policy(cfg["policy"])
+        self.policy = load_locomotion_policy(policy_of(cfg))
         self.default_pose = np.array(go1.default_joint_angles())
         self.last_actions: np.ndarray | None = None  # (E, A, 12), made at the first place() or command()
 
     def robot_spec(self, rgba: tuple[float, float, float, float] = (0.2, 0.4, 0.9, 1.0)) -> mujoco.MjSpec:
         """One Go1 as a standalone spec, to be attached by prefix (`robot0/`, `robot1/`, ...)."""
-        return go1_spec(self.cfg["kp"], self.cfg["kd"], foot_friction=self.cfg["foot_friction"], rgba=rgba)
+        cfg = self.cfg
+        return go1_spec(cfg["kp"], cfg["kd"], cfg.get("torque_limits"), foot_friction=cfg["foot_friction"], rgba=rgba)
 
-    def bind(self, model: mujoco.MjModel, prefixes: list[str]) -> None:
+    def seed(self, seed: int) -> None:
+        """Nothing is drawn: a Go1 falls by its physics."""
+
+    def after_step(self, dt: float) -> None:
+        """Nothing to update: a Go1's fall is in its pose (`read`)."""
+
+    def bind(self, model: mujoco.MjModel, prefixes: list[str], batch=None) -> None:
         """Find every robot's columns: `qpos_idx` (A, 19), `qvel_idx` (A, 18), `ctrl_idx` (A, 12)."""
         qpos, qvel, ctrl = [], [], []
         for p in prefixes:

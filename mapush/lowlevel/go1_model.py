@@ -18,6 +18,7 @@ GEOM = mujoco.mjtGeom
 def go1_spec(
     kp: float,
     kd: float,
+    torque_limits: tuple[float, float, float] | None = None,
     armature: float = 0.01,
     foot_friction: float = 1.0,
     rgba: tuple[float, float, float, float] = (0.2, 0.4, 0.9, 1.0),
@@ -26,6 +27,8 @@ def go1_spec(
 
     Args:
         kp: N m/rad, the servos' stiffness. kd: N m s/rad, their damping.
+        torque_limits: N m, the (hip, thigh, calf) servos' torque caps; None: the motors' specification
+            (`go1_constants.TORQUE_LIMIT`).
         armature: kg m^2, reflected rotor inertia of each joint (keeps the light calf stable under implicit
             integration).
         foot_friction: sliding friction of the feet (MuJoCo combines contacts by max).
@@ -41,8 +44,9 @@ def go1_spec(
     trunk.add_geom(name="trunk_box", type=GEOM.mjGEOM_BOX, size=half, rgba=list(rgba))
     for leg in go1.LEGS:
         _add_leg(trunk, leg, armature, foot_friction)
+    caps = dict(zip(go1.JOINTS, torque_limits, strict=True)) if torque_limits else go1.TORQUE_LIMIT
     for name in go1.JOINT_NAMES:
-        limit = go1.TORQUE_LIMIT[name.split("_")[1]]
+        limit = caps[name.split("_")[1]]
         actuator = spec.add_actuator(name=name.replace("_joint", ""), target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=kp, kv=kd)
         actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -103,9 +107,11 @@ def _add_leg(trunk, leg: str, armature: float, foot_friction: float) -> None:
     )
 
 
-def standalone_spec(kp: float, kd: float, timestep: float = 0.005) -> mujoco.MjSpec:
+def standalone_spec(
+    kp: float, kd: float, timestep: float = 0.005, torque_limits: tuple[float, float, float] | None = None
+) -> mujoco.MjSpec:
     """A Go1 on a flat floor (names unprefixed), for tests and single-robot checks."""
-    spec = go1_spec(kp, kd)
+    spec = go1_spec(kp, kd, torque_limits)
     spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.worldbody.add_geom(name="floor", type=GEOM.mjGEOM_PLANE, size=[20, 20, 0.1], friction=[1.0, 0.005, 0.0001])

@@ -3,7 +3,18 @@
 It stands for "a locomotion controller that tracks velocity commands" (docs/design.md). Each actuator
 applies F = gain * (v_cmd - v), clamped to the force limit; with gain = mass / lag the velocity follows the command
 as a first-order lag. The slide joints move along the world axes, so body-frame commands are rotated into the world
-frame before they become actuator targets. The robot floats at a fixed height: it cannot tilt or fall.
+frame before they become actuator targets. The robot floats at a fixed height.
+
+Two limits stand for the legged Go1's, as `mapush calibrate` measures them (docs/fidelity.md):
+- `force_cap: planar`: `max_force` caps the norm of the planar push, in every direction. At each policy step the
+  x and y actuators get the limits max_force * |e_x| / |e| and max_force * |e_y| / |e|, where e is the velocity
+  error: the box they make has its corner on the circle of radius max_force, so no force leaves that circle, and
+  a push along e reaches it. Runs made before the key capped each world axis at `max_force` (`axes`).
+- `fall`: a robot that holds a load its Go1 could not falls. The load is the planar contact force on the robot
+  (`qfrc_constraint` of its slides), low-passed over `filter_s`. The Go1 under a held load L falls within
+  `window_s` with the measured probability P(L) = 1 / (1 + exp(-(L - load_n) / width_n)); so a robot falls at the
+  hazard rate -ln(1 - P(L)) / window_s, against a threshold drawn per episode from Exp(1). A fallen robot reads as
+  tilted by pi / 2, which the pushing levels' `robot_tilt` exception ends the episode on, as a Go1's fall.
 """
 
 from __future__ import annotations
@@ -15,6 +26,16 @@ from mapush.errors import BadInput
 from mapush.planning.geometry import rotate
 
 ROBOT_BODY = "base"
+FALLEN_TILT = np.pi / 2
+"""rad; how a fallen robot reads (`read`): beyond every level's `robot_tilt` threshold."""
+FALL_STREAM = 1
+"""The fall thresholds draw from the seed's stream 1, apart from the env's own draws (stream 0: the plain seed)."""
+MAX_FALL_PROBABILITY = 1.0 - 1e-9
+"""P(L) is held below 1 so that the hazard stays finite."""
+FORCE_CAPS = ("planar", "axes")
+"""`force_cap`: on the norm of the planar force, or on each world axis (runs made before the key)."""
+FALL_KEYS = ("load_n", "width_n", "window_s", "filter_s")
+"""`fall`'s keys: the fitted fall curve (N, N, s) and the load's low-pass time constant (s)."""
 RANDOMIZED = ("lag", "yaw_lag", "max_force")
 """The keys `randomize` may draw anew per robot in training (`Tracker.vary`)."""
 JOINTS = ("x", "y", "yaw")
@@ -24,11 +45,19 @@ JOINTS = ("x", "y", "yaw")
 class Tracker:
     """Velocity-tracking rigid-body robots; see the module docstring."""
 
-    can_fall = False
-
     @staticmethod
     def check(cfg: dict) -> None:
-        """BadInput unless every `randomize` range is a known key with 0 < low <= high (the tracker needs no files)."""
+        """BadInput unless `force_cap`, `fall` and every `randomize` range are valid (the tracker needs no files)."""
+        if cfg.get("force_cap", "axes") not in FORCE_CAPS:
+            raise BadInput(f"lowlevel.force_cap={cfg['force_cap']!r}; valid: {', '.join(FORCE_CAPS)}")
+        fall = cfg.get("fall")
+        if fall is not None:
+            wrong = sorted(set(FALL_KEYS) ^ set(fall)) if isinstance(fall, dict) else FALL_KEYS
+            numbers = not wrong and all(isinstance(fall[k], int | float) for k in FALL_KEYS)
+            if not numbers or not all(float(fall[k]) > 0 for k in ("width_n", "window_s", "filter_s")):
+                raise BadInput(
+                    f"lowlevel.fall={fall}: keys {', '.join(FALL_KEYS)} (width_n, window_s, filter_s > 0), or null"
+                )
         for key, bounds in (cfg.get("randomize") or {}).items():
             if key not in RANDOMIZED:
                 raise BadInput(f"lowlevel.randomize.{key} is not drawn; valid: {', '.join(RANDOMIZED)}")
@@ -47,6 +76,19 @@ class Tracker:
         self.cfg = cfg
         length, width, _height = cfg["size"]
         self.yaw_inertia = cfg["mass"] * (length**2 + width**2) / 12.0
+        self.planar = cfg.get("force_cap", "axes") == "planar"
+        self.fall = cfg.get("fall")
+        self.rng = np.random.default_rng([0, FALL_STREAM])
+        self.cap: np.ndarray | None = None  # (E, A) N, each robot's planar force cap (`planar`)
+
+    @property
+    def can_fall(self) -> bool:
+        """Whether robots can fall: with a `fall` model."""
+        return self.fall is not None
+
+    def seed(self, seed: int) -> None:
+        """Reseed the fall thresholds' draws."""
+        self.rng = np.random.default_rng([int(seed), FALL_STREAM])
 
     def gains(self, lag, yaw_lag) -> tuple:
         """The velocity actuators' gains (x, y, yaw) that make a robot follow its commands with these lags, s:
@@ -90,12 +132,42 @@ class Tracker:
             act.forcerange = [-limit, limit]
         return spec
 
-    def bind(self, model: mujoco.MjModel, prefixes: list[str]) -> None:
-        """Find the qpos, qvel and ctrl columns of every robot. Sets `qpos_idx`, `qvel_idx`, `ctrl_idx`: (A, 3)."""
+    def bind(self, model: mujoco.MjModel, prefixes: list[str], batch=None) -> None:
+        """Find the qpos, qvel and ctrl columns of every robot (`qpos_idx`, `qvel_idx`, `ctrl_idx`: (A, 3)), and in
+        `batch` (a `mujoco.batch.Batch`) the per-env force limits and contact forces the two limits need."""
         joint_ids = np.array([[model.joint(p + j).id for j in JOINTS] for p in prefixes])
         self.qpos_idx = model.jnt_qposadr[joint_ids]
         self.qvel_idx = model.jnt_dofadr[joint_ids]
         self.ctrl_idx = np.array([[model.actuator(p + j).id for j in JOINTS] for p in prefixes])
+        if batch is None:
+            return
+        E, A = batch.nsim, len(prefixes)
+        if self.planar:
+            self.forcerange = batch.expand("actuator_forcerange")
+            self.cap = np.full((E, A), float(self.cfg["max_force"]))
+        if self.fall is not None:
+            self.constraint = batch.bind("qfrc_constraint")
+            self.load = np.zeros((E, A))  # N, the low-passed planar contact force
+            self.hazard = np.zeros((E, A))  # the hazard accumulated this episode
+            self.threshold = np.ones((E, A))  # the hazard at which each robot falls, Exp(1) per episode
+            self.fallen = np.zeros((E, A), dtype=bool)
+
+    def fall_probability(self, load: np.ndarray) -> np.ndarray:
+        """P(L): the fitted probability that the Go1 falls within `window_s` under a held load L (N)."""
+        f = self.fall
+        z = (np.asarray(load, dtype=np.float64) - f["load_n"]) / f["width_n"]
+        return np.minimum(1.0 / (1.0 + np.exp(-np.clip(z, -60.0, 60.0))), MAX_FALL_PROBABILITY)
+
+    def after_step(self, dt: float) -> None:
+        """After a policy step of `dt` s: low-pass each robot's planar contact load and accumulate its fall hazard;
+        a robot whose hazard reaches its threshold has fallen (it stays fallen until `place`)."""
+        if self.fall is None:
+            return
+        load = np.linalg.norm(self.constraint[:, self.qvel_idx[:, :2]], axis=-1)  # (E, A)
+        self.load += (load - self.load) * min(1.0, dt / self.fall["filter_s"])
+        rate = -np.log1p(-self.fall_probability(self.load)) / self.fall["window_s"]
+        self.hazard += rate * dt
+        self.fallen |= self.hazard >= self.threshold
 
     def read(self, qpos: np.ndarray, qvel: np.ndarray) -> dict[str, np.ndarray]:
         """Robot states of all envs: `xy` (E, A, 2), `yaw` (E, A), `vel` (E, A, 3) world frame, `tilt` (E, A)."""
@@ -104,7 +176,7 @@ class Tracker:
             "xy": pose[..., :2],
             "yaw": pose[..., 2],
             "vel": qvel[:, self.qvel_idx],
-            "tilt": np.zeros(pose.shape[:2]),
+            "tilt": self.fallen * FALLEN_TILT if self.fall is not None else np.zeros(pose.shape[:2]),
         }
 
     def command(self, ctrl: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, cmd: np.ndarray) -> None:
@@ -112,6 +184,14 @@ class Tracker:
         yaw = qpos[:, self.qpos_idx[:, 2]]
         world = np.concatenate([rotate(cmd[..., :2], yaw), cmd[..., 2:3]], -1)
         ctrl[:, self.ctrl_idx] = world
+        if self.planar:
+            error = world[..., :2] - qvel[:, self.qvel_idx[:, :2]]  # (E, A, 2)
+            norm = np.linalg.norm(error, axis=-1, keepdims=True)
+            share = np.where(norm > 1e-9, np.abs(error) / np.maximum(norm, 1e-12), np.sqrt(0.5))
+            limit = self.cap[..., None] * share  # (E, A, 2): the box's corner on the circle of radius cap
+            slides = self.ctrl_idx[:, :2]
+            self.forcerange[:, slides, 0] = -limit
+            self.forcerange[:, slides, 1] = limit
 
     def vary(self, batch, ids: np.ndarray, rng: np.random.Generator) -> None:
         """Draw the robots' `lag`, `yaw_lag` and `max_force` of envs `ids` uniformly from `randomize`'s ranges (one
@@ -130,7 +210,10 @@ class Tracker:
         rows = ids[:, None, None]
         gain[rows, self.ctrl_idx, 0] = kv
         bias[rows, self.ctrl_idx, 2] = -kv
-        limit[rows, self.ctrl_idx[:, :2]] = np.stack([-force, force], -1)[:, :, None, :]  # both slides
+        if self.planar:
+            self.cap[ids] = force  # `command` turns it into the slides' limits
+        else:
+            limit[rows, self.ctrl_idx[:, :2]] = np.stack([-force, force], -1)[:, :, None, :]  # both slides
 
     def place(self, qpos: np.ndarray, qvel: np.ndarray, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
         """Put the robots of envs `ids` at `xy` (n, A, 2) with headings `yaw` (n, A), at rest."""
@@ -138,3 +221,6 @@ class Tracker:
         qpos[np.ix_(ids, self.qpos_idx[:, 1])] = xy[..., 1]
         qpos[np.ix_(ids, self.qpos_idx[:, 2])] = yaw
         qvel[np.ix_(ids, self.qvel_idx.reshape(-1))] = 0.0
+        if self.fall is not None:
+            self.load[ids], self.hazard[ids], self.fallen[ids] = 0.0, 0.0, False
+            self.threshold[ids] = self.rng.exponential(1.0, size=(len(ids), self.threshold.shape[1]))

@@ -31,6 +31,7 @@ class Cell:
     digits: int = 1
     unreached: int = 0  # seeds that never reached what the cell measures (e.g. env-steps to 50 % success)
     otherwise: int = 0  # seeds from jobs made otherwise than their experiment plans now (an earlier recipe)
+    note: str = ""  # what the cell stands beside, in brackets after its value (e.g. the team study's margin)
 
     def text(self) -> str:
         digits = self.digits
@@ -41,6 +42,8 @@ class Cell:
             ours = self._ours()
         if self.otherwise:
             ours += f" {OTHERWISE}"
+        if self.note:
+            ours += f" [{self.note}]"
         if self.paper is None:
             return ours
         return f"{ours} ({self.paper[0]:.{digits}f} \u00b1 {self.paper[1]:.{digits}f})"
@@ -58,6 +61,7 @@ class Cell:
             "seeds": len(self.values),
             "unreached": self.unreached,
             "made_otherwise": self.otherwise,
+            "note": self.note,
             "paper": list(self.paper) if self.paper else None,
             "sources": self.sources,
         }

@@ -52,7 +52,7 @@ class PushSim(BatchSim):
         self.num_agents = task_cfg["num_agents"]
         self.lowlevel = lowlevel
         self.mocap_pos = self.batch.bind("mocap_pos")
-        lowlevel.bind(self.model, robot_prefixes(self.num_agents))
+        lowlevel.bind(self.model, robot_prefixes(self.num_agents), self.batch)
         joint = self.model.joint(OBJECT_JOINT)
         self.object_qpos = int(self.model.jnt_qposadr[joint.id])
         self.object_qvel = int(self.model.jnt_dofadr[joint.id])
@@ -65,12 +65,16 @@ class PushSim(BatchSim):
         self.object_geoms = np.flatnonzero(self.model.geom_bodyid == self.model.body(OBJECT_BODY).id)
         self.object_rest_z = float(self.model.body(OBJECT_BODY).pos[2])
         self.geom_friction = self.batch.expand("geom_friction")
+        self.object_body = int(self.model.body(OBJECT_BODY).id)
+        self.object_mass = None  # per-env body mass and inertia, made at the first layout that sets a `mass`
         self.batch.reset()
 
     def step(self, commands: torch.Tensor) -> np.ndarray:
         """Apply body-frame commands (E, A, 3) for one policy step; returns the env ids that failed (`advance`)."""
         self.lowlevel.command(self.ctrl, self.qpos, self.qvel, commands.numpy().astype(np.float64))
-        return self.advance()
+        failed = self.advance()
+        self.lowlevel.after_step(self.dt)
+        return failed
 
     def read(self) -> PushState:
         """The current state of every env (`PushState`)."""
@@ -103,7 +107,8 @@ class PushSim(BatchSim):
         Args:
             ids: env ids, (n,).
             layout: `object_xy` (n, 2), `object_yaw` (n,), `robot_xy` (n, A, 2), `robot_yaw` (n, A),
-                `subgoal_xy` (n, 2), `friction` (n,).
+                `subgoal_xy` (n, 2), `friction` (n,), and optionally `mass` (n,): the object's, kg (its inertia
+                scaled with it; without it the model's).
         """
         if len(ids) == 0:
             return
@@ -118,7 +123,19 @@ class PushSim(BatchSim):
         self.lowlevel.place(self.qpos, self.qvel, ids, lay["robot_xy"], lay["robot_yaw"])
         self.mocap_pos[ids, self.subgoal_mocap, :2] = lay["subgoal_xy"]
         self.geom_friction[np.ix_(ids, self.object_geoms, [0])] = lay["friction"][:, None, None]
+        if "mass" in lay:
+            self._set_object_mass(ids, lay["mass"])
         self.forward(ids)
+
+    def _set_object_mass(self, ids: np.ndarray, mass: np.ndarray) -> None:
+        """The object of envs `ids` weighs `mass` (n,) kg; its inertia scales with it (the same shape), and the
+        model's derived constants follow."""
+        if self.object_mass is None:
+            self.object_mass, self.object_inertia = self.batch.expand("body_mass"), self.batch.expand("body_inertia")
+        body = self.object_body
+        self.object_mass[ids, body] = mass
+        self.object_inertia[ids, body] = self.model.body_inertia[body] * (mass / self.model.body_mass[body])[:, None]
+        self.batch.set_const(ids)  # the constants derived from masses (e.g. the contacts' inverse weights)
 
     def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
         """Place the obstacle blocks of envs `ids`: rows (n, K, 5) of (x, y, yaw, size x, size y); sizes are fixed."""

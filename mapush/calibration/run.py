@@ -1,0 +1,233 @@
+"""`mapush calibrate`: measure a legged low level and write the tracker that stands for it.
+
+Three experiments on the robot that the overrides choose (default `lowlevel=go1`, its shipped policy):
+- free step responses -> the tracker's `lag` and `yaw_lag` (`lags.py`);
+- walking into a cuboid of growing drag -> its push capacity, the tracker's `max_force` on the planar norm
+  (`capacity.py`);
+- walking under a growing held load -> its fall curve, the tracker's `fall` model (`capacity.py`).
+
+The fitted values replace those keys in `conf/lowlevel/tracker.yaml` (each line says what it was calibrated against
+and when), except a lag the robot does not follow (`STEADY_MIN`), a capacity beyond the sweep, or a fall curve with no
+fall, which are reported instead and stay as they were. `calibration.json` (every measurement) and `calibration.png`
+(the robot's responses against the fitted tracker's) go to the output dir.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+from omegaconf import OmegaConf
+
+from mapush.atomic import write_text
+from mapush.calibration import capacity as cap
+from mapush.calibration.lags import (
+    AXES,
+    LAG_GRID,
+    LAG_OF_AXIS,
+    STEADY_MIN,
+    fit_lag,
+    free_layout,
+    run_steps,
+    steady_fractions,
+    step_commands,
+)
+from mapush.config import CONF_DIR, compose_config, to_plain
+from mapush.errors import BadInput
+from mapush.lowlevel.go1 import policy_of
+
+CALIBRATED = "calibrated against"
+CALIBRATED_KEYS = ("lag", "yaw_lag", "max_force", "force_cap", "fall")
+"""The tracker keys a calibration writes or reads back: a config must have each at the top level."""
+
+
+def calibrate(
+    reference: list[str],
+    steps: list[float],
+    settle_s: float,
+    duration_s: float,
+    out_dir: Path,
+    config_path: Path,
+    repeats: int = 6,
+    seed: int = 0,
+) -> dict:
+    """Run the experiments, fit, write `config_path` (tracker.yaml), `calibration.json` and `calibration.png`.
+
+    Args:
+        reference: overrides that select the robot to measure, e.g. `["lowlevel=go1", "lowlevel.policy=P"]`.
+        repeats: starts per drag and per load in the capacity and fall sweeps. seed: draws those starts.
+    """
+    missing = [key for key in CALIBRATED_KEYS if not re.search(rf"^{key}:", Path(config_path).read_text(), re.M)]
+    if missing:
+        raise BadInput(
+            f"--config {config_path} has no {', '.join(missing)}; valid: a tracker config of this mapush version "
+            f"({default_config_path()})"
+        )
+    out_dir.mkdir(parents=True, exist_ok=True)
+    robot_overrides = [*reference, "task.num_agents=1"]
+    robot = to_plain(compose_config(robot_overrides))["lowlevel"]
+    source = f"{robot['name']}, policy {policy_of(robot)}" if "policy" in robot else robot["name"]
+    # free step responses -> lags
+    free_cfg = to_plain(compose_config(robot_overrides))
+    commands = step_commands(steps)
+    free = run_steps(free_cfg, commands, free_layout(len(commands), 0.5), settle_s, duration_s)
+    n = len(steps)
+    linear = np.concatenate([free["robot_vel"][:n, :, 0], free["robot_vel"][n : 2 * n, :, 1]])
+    lags = {
+        "lag": fit_lag(linear, np.concatenate([commands[:n, 0], commands[n : 2 * n, 1]]), free["dt"]),
+        "yaw_lag": fit_lag(free["robot_vel"][2 * n :, :, 2], commands[2 * n :, 2], free["dt"]),
+    }
+    tail = max(1, round(0.5 / free["dt"]))  # steady state: the last 0.5 s
+    steady = steady_fractions(free["robot_vel"], commands, tail)
+    untrusted = {LAG_OF_AXIS[axis]: share for axis, share in steady.items() if share < STEADY_MIN}
+    warnings = [
+        f"{key}: the robot holds {share:.0%} of its step command after {duration_s:g} s, which no first-order lag "
+        f"does; {key} left as it was in {config_path}"
+        for key, share in untrusted.items()
+    ]
+    # push capacity and falls under a held load
+    push = cap.push_sweep(reference, repeats, seed)
+    capacity = cap.fit_capacity(push["drag"], push["speed"])
+    falls = cap.fall_sweep(reference, repeats, seed)
+    curve = cap.fit_fall_curve(falls["load"], falls["fell"])
+    fitted: dict = {key: value for key, value in lags.items() if key not in untrusted}
+    if capacity is None:
+        warnings.append(f"max_force: the robot still moves a {cap.DRAG_GRID[-1]:g} N drag; left as it was")
+    else:
+        fitted["max_force"] = round(capacity, 1)
+    if curve is None:
+        warnings.append(f"fall: no fall under loads up to {cap.LOAD_GRID[-1]:g} N; left as it was")
+    else:
+        fitted["fall"] = {
+            "load_n": round(curve["load_n"], 1),
+            "width_n": round(curve["width_n"], 2),
+            "window_s": cap.FALL_WINDOW_S,
+            "filter_s": cap.LOAD_FILTER_S,
+        }
+    write_tracker_config(config_path, fitted, source)
+    # the tracker as written, through the same push sweep
+    tracker = cap.push_sweep(["lowlevel=tracker", *_as_overrides(OmegaConf.load(config_path))], repeats, seed)
+    summary = {
+        "fitted": {**lags, **{k: v for k, v in fitted.items() if k not in lags}},
+        "written": fitted,
+        "capacity_n": capacity,
+        "fall_curve": curve,
+        "steady_fraction": steady,
+        "warnings": warnings,
+        "reference": reference,
+        "source": source,
+        "seed": seed,
+        "repeats": repeats,
+        "steps": steps,
+        "settle_s": settle_s,
+        "duration_s": duration_s,
+        "dt": free["dt"],
+        "free": {"commands": commands.tolist(), "legged": free["robot_vel"].tolist()},
+        "push": {
+            "speed_command": cap.PUSH_SPEED,
+            "drag_n": push["drag"].tolist(),
+            "object_speed": push["speed"].tolist(),
+            "fell": push["fell"].tolist(),
+            "tracker_object_speed": tracker["speed"].tolist(),
+        },
+        "falls": {"load_n": falls["load"].tolist(), "fell": falls["fell"].tolist(), "window_s": cap.FALL_WINDOW_S},
+    }
+    write_text(out_dir / "calibration.json", json.dumps(summary, indent=1) + "\n")
+    plot_calibration(summary, out_dir / "calibration.png")
+    return summary
+
+
+def _as_overrides(tracker: dict) -> list[str]:
+    """The tracker config's calibrated keys as Hydra overrides."""
+    fall = tracker.get("fall")
+    fall_text = "null" if fall is None else "{" + ",".join(f"{k}:{v}" for k, v in fall.items()) + "}"
+    keys = ("lag", "yaw_lag", "max_force", "force_cap")
+    return [f"lowlevel.{k}={tracker[k]}" for k in keys] + [f"lowlevel.fall={fall_text}"]
+
+
+def write_tracker_config(path: Path, fitted: dict, source: str) -> None:
+    """Replace the fitted keys' values in tracker.yaml; every other line, and each key's own comment, stay."""
+    text = Path(path).read_text()
+    stamp = datetime.date.today().isoformat()
+    for key, value in fitted.items():
+        pattern = re.compile(rf"^{key}:[ \t]*[^#\n]*?(?:[ \t]*#[ \t]*(.*))?$", re.MULTILINE)
+        found = pattern.search(text)
+        if not found:
+            raise ValueError(f"{path} has no top-level {key!r} to calibrate")
+        comment = (found.group(1) or "").split(CALIBRATED)[0].rstrip("; ")
+        shown = (
+            "{" + ", ".join(f"{k}: {v:g}" for k, v in value.items()) + "}"
+            if isinstance(value, dict)
+            else f"{value:.4g}"
+        )
+        line = f"{key}: {shown}  # {comment}; {CALIBRATED} {source}, {stamp}".replace("#  ;", "#").replace("# ;", "#")
+        text = text[: found.start()] + line + text[found.end() :]
+    write_text(Path(path), text)
+
+
+def plot_calibration(summary: dict, out: Path) -> None:
+    """The measured robot (solid) against the fitted tracker (dashed): each free axis, the push capacity sweep,
+    and the fall curve with its fit."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 5, figsize=(20, 3.4))
+    commands, legged, dt = np.array(summary["free"]["commands"]), np.array(summary["free"]["legged"]), summary["dt"]
+    t = (np.arange(legged.shape[1]) + 1) * dt
+    per_axis = len(commands) // 3
+    for axis in range(3):
+        ax = axes[axis]
+        lag = summary["fitted"]["yaw_lag" if axis == 2 else "lag"]
+        for k in range(axis * per_axis, (axis + 1) * per_axis):
+            line = ax.plot(t, legged[k, :, axis], label=f"measured, step {commands[k, axis]:g}")[0]
+            ax.plot(t, commands[k, axis] * (1 - np.exp(-t / lag)), "--", color=line.get_color())
+        ax.set_title(f"free {AXES[axis]} (tracker lag {lag:.3f} s)")
+        ax.set_xlabel("s")
+        ax.legend(fontsize=7)
+    push = summary["push"]
+    drag = np.array(push["drag_n"])
+    ax = axes[3]
+    for key, style, label in (("object_speed", "o-", "measured"), ("tracker_object_speed", "s--", "tracker")):
+        speed = np.array(push[key])
+        grid = np.unique(drag)
+        ax.plot(grid, [np.median(speed[drag == d]) for d in grid], style, label=f"{label} (median)")
+        ax.scatter(drag, speed, s=6, alpha=0.4)
+    if summary["capacity_n"] is not None:
+        ax.axvline(summary["capacity_n"], color="k", lw=0.8, label=f"capacity {summary['capacity_n']:.1f} N")
+    ax.set_title(f"walking into a load at {push['speed_command']:g} m/s")
+    ax.set_xlabel("object drag, N")
+    ax.set_ylabel("steady object speed, m/s")
+    ax.legend(fontsize=7)
+    ax = axes[4]
+    load, fell = np.array(summary["falls"]["load_n"]), np.array(summary["falls"]["fell"])
+    grid = np.unique(load)
+    ax.plot(grid, [fell[load == x].mean() for x in grid], "o", label="measured")
+    if summary["fall_curve"] is not None:
+        fine = np.linspace(grid[0], grid[-1], 200)
+        ax.plot(fine, cap.fall_probability(fine, **summary["fall_curve"]), "--", label="fit")
+    ax.set_title(f"falls within {summary['falls']['window_s']:g} s under a held load")
+    ax.set_xlabel("held load, N")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+
+
+def default_config_path() -> Path:
+    """conf/lowlevel/tracker.yaml of this checkout."""
+    return CONF_DIR / "lowlevel" / "tracker.yaml"
+
+
+def physical_bounds() -> dict[str, tuple[float, float]]:
+    """What a fitted value may be: the grids' ranges."""
+    return {
+        "lag": (float(LAG_GRID[0]), float(LAG_GRID[-1])),
+        "yaw_lag": (float(LAG_GRID[0]), float(LAG_GRID[-1])),
+        "max_force": (float(cap.DRAG_GRID[0]), float(cap.DRAG_GRID[-1])),
+    }

@@ -1,0 +1,37 @@
+"""What every table is made of: the paper's numbers and the cells collected from jobs' `result.json` records."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+
+from mapush.experiments.pipeline import concerns
+from mapush.report import plots
+from mapush.report.formats import Cell
+
+PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
+"""The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours."""
+
+
+def matching(results: list[dict], **match) -> list[dict]:
+    return [r for r in results if all(r.get(k) == v for k, v in match.items())]
+
+
+def collect(results: list[dict], metric: str, scale: float, **match) -> Cell:
+    """The cell of the results that match (key: value or eval name), for one metric of one evaluation."""
+    eval_name = match.pop("eval")
+    cell = Cell()
+    for r in matching(results, **match):
+        if eval_name in r["evals"]:
+            cell.values.append(scale * r["evals"][eval_name][metric])
+            cell.sources.append(r["job_dir"])
+            reason = r.get("made_otherwise") or ""
+            cell.otherwise += bool(reason) and concerns(reason, r, eval_name)
+    return cell
+
+
+def reach_cell(results: list[dict]) -> Cell:
+    """Env-steps (M) to the curve's `reach` success rate, over the seeds of `results`."""
+    values, sources, unreached = plots.reach_values(results)
+    return Cell(values, sources, digits=2, unreached=unreached)

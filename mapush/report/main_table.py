@@ -1,0 +1,178 @@
+"""The main table (paper Table II): every method on the three long-horizon objects, and what holds of the
+paper's findings there."""
+
+from __future__ import annotations
+
+import numpy as np
+from omegaconf import OmegaConf
+
+from mapush.config import group_file
+from mapush.report import plots
+from mapush.report.cells import PAPER, collect, matching
+from mapush.report.formats import Table
+from mapush.report.physics import team_needed
+
+EXTRA_COLUMNS = {
+    (method, name): f"{PAPER['main']['labels'][method]}, {spec.column}"
+    for name, spec in group_file("experiment", "main").evals.items()
+    if not OmegaConf.is_list(spec) and "column" in spec
+    for method in spec.methods
+}
+"""The main table's columns beside the paper's methods, (method, evaluation) -> label: the evaluations of
+conf/experiment/main.yaml that name a `column` (path following; the legged Go1s that the paper's robots were)."""
+
+
+def main_table(results: list[dict], variant: str) -> Table:
+    """Table II's layout: rows task x metric, columns the methods in the paper's order."""
+    paper = PAPER["main"]
+    mine = [r for r in results if r["table"] == "main" and r["variant"] == variant]
+    methods = paper["methods"]
+    rows, missing, findings = [], [], []
+    for task in paper["tasks"]:
+        for metric, key, scale, digits, label in (
+            ("success_rate", "success_rate", 100.0, 1, "S.R. (%) \u2191"),
+            ("completion_time", "completion_time", 1.0, 2, "C.T. \u2193"),
+        ):
+            cells = []
+            for method in methods:
+                cell = collect(mine, key, scale, method=method, task=task, eval="main")
+                cell.paper, cell.digits = tuple(paper[metric][task][method]), digits
+                if not cell.values:
+                    missing.append(f"{method} / {task} / {metric}: no finished job")
+                cells.append(cell)
+            for (method, eval_name), column in EXTRA_COLUMNS.items():  # other evaluations (not in the paper)
+                extra = collect(mine, key, scale, method=method, task=task, eval=eval_name)
+                extra.digits = digits
+                if not extra.values:
+                    missing.append(f"{column} / {task} / {metric}: no finished job")
+                cells.append(extra)
+            rows.append(([paper["task_labels"][task], label], cells))
+    panels = {
+        paper["task_labels"][task]: {paper["labels"][m]: matching(mine, method=m, task=task) for m in methods}
+        for task in paper["tasks"]
+    }
+    for task in paper["tasks"]:
+        findings += _main_findings(mine, paper, task)
+    for task, lines in panels.items():
+        findings += filter(None, (plots.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
+    drawn = plots.drawn_stages(mine)
+    for task, lines in panels.items():
+        findings += [v for m, r in lines.items() for v in plots.stage_verdicts(f"{m} / {task}", r, drawn)]
+    return Table(
+        f"main_{variant}",
+        f"Main results ({variant}): ours (paper)",
+        ["Task", "Metric"],
+        [*(paper["labels"][m] for m in methods), *EXTRA_COLUMNS.values()],
+        rows,
+        sorted(set(missing)),
+        "S.R. over the evaluation trials, C.T. normalized by the timeout; mean \u00b1 std over training seeds. "
+        "Ours, path only: Ours' hierarchy with every subgoal on the planned path (`level.follow_path=true`), the bar "
+        "its learned high level has to clear. H+L, path only: a hand-written pusher in H+L's action space, each robot "
+        "led along the planned path (`level.follow_path=true` on `level=high_nav`), the bar H+L and H+L FT have to "
+        "clear; it learns nothing, so its seeds (H+L's jobs) repeat one evaluation. Ours, legged: the same "
+        "policies on Go1s walked by the shipped locomotion policy (`lowlevel=go1`), the figure to hold against the "
+        "paper's legged robots; SA, legged: the single robot on a Go1 likewise.",
+        findings,
+        panels,
+    )
+
+
+LEGGED_GAP = 10.0
+"""Points of S.R. the legged Ours row may lose against the tracker row (the tables issue's target)."""
+
+
+def success_time(success_rate: float, completion_time: float) -> float | None:
+    """The mean completion time of the successful episodes alone, as a fraction of the timeout, from a success rate
+    (0-1) and a C.T. that counts every failure as the timeout: C.T. = (1 - S.R.) + S.R. x t. None with no success.
+    It puts the paper's C.T. and ours on one footing: how fast the pushes that succeed are."""
+    if success_rate <= 0:
+        return None
+    return (completion_time - (1.0 - success_rate)) / success_rate
+
+
+def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
+    """What holds on one object: Ours against the paper, the baselines, path following and the legged robots."""
+    sr = {m: collect(mine, "success_rate", 100.0, method=m, task=task, eval="main").values for m in paper["methods"]}
+    ours = sr["ours"]
+    if not ours:
+        return []
+    mean, label = float(np.mean(ours)), paper["task_labels"][task]
+    ct = float(np.mean(collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").values))
+    paper_sr, paper_ct = paper["success_rate"][task]["ours"][0], paper["completion_time"][task]["ours"][0]
+    lines = [
+        f"{label}: Ours S.R. {mean:.1f} % vs the paper's {paper_sr:.1f} % ("
+        + ("holds: at or above" if mean >= paper_sr else "does not hold: below")
+        + f"), C.T. {ct:.2f} vs {paper_ct:.2f} ("
+        + ("holds: at or below" if ct <= paper_ct else "does not hold: above")
+        + ")"
+    ]
+    timeouts = {r["evals"].get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
+    mine_t, paper_t = success_time(mean / 100, ct), success_time(paper_sr / 100, paper_ct)
+    if len(timeouts) == 1 and None not in timeouts and mine_t is not None and paper_t is not None:
+        (timeout,) = timeouts
+        lines.append(
+            f"{label}: Ours' successes take {mine_t * timeout:.0f} s on average, the paper's {paper_t * timeout:.0f} s "
+            f"(from S.R. and C.T., a failure counting as the {timeout:.0f} s timeout)"
+        )
+    beaten = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) >= mean]
+    below = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) < mean]
+    if beaten or below:
+        lines.append(
+            f"{label}: baselines below Ours: {', '.join(below) or 'none'}; at or above: {', '.join(beaten) or 'none'}"
+        )
+    if sr.get("sa"):
+        sa = float(np.mean(sr["sa"]))
+        verdict = "below" if sa < mean else "at or above"
+        lines.append(f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {team_needed(task)}")
+    scripted = collect(mine, "success_rate", 100.0, method="hl", task=task, eval="path_only").values
+    for method in ("hl", "hl_ft"):
+        if scripted and sr.get(method):
+            learned, bar = float(np.mean(sr[method])), float(np.mean(scripted))
+            verdict = "at or above" if learned >= bar else "below"
+            lines.append(
+                f"{label}: {paper['labels'][method]} {learned:.1f} % is {verdict} the hand-written pusher's "
+                f"{bar:.1f} % in its action space (H+L, path only)"
+            )
+    for eval_name, what in (("path_only", "path following"), ("go1", "legged Go1s")):
+        other = collect(mine, "success_rate", 100.0, method="ours", task=task, eval=eval_name).values
+        if not other:
+            continue
+        gap = mean - float(np.mean(other))
+        if eval_name == "path_only":
+            verdict = "adds to" if gap > 0 else "does not beat"
+            lines.append(f"{label}: the learned high level {verdict} path following ({gap:+.1f} points of S.R.)")
+        else:
+            verdict = "within" if gap <= LEGGED_GAP else "not within"
+            line = f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points"
+            lines.append(line + _ended_by(mine, task, eval_name))
+    lines += _legged_baseline(mine, paper, task)
+    return lines
+
+
+def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[str]:
+    """The paper's comparison on legs: each baseline evaluated on Go1s (`go1`) against Ours on Go1s."""
+    ours = collect(mine, "success_rate", 100.0, method="ours", task=task, eval="go1").values
+    if not ours:
+        return []
+    lines, ours_mean = [], float(np.mean(ours))
+    for method in (m for m in paper["methods"] if m != "ours"):
+        legged = collect(mine, "success_rate", 100.0, method=method, task=task, eval="go1").values
+        if legged:
+            mean = float(np.mean(legged))
+            verdict = "below" if mean < ours_mean else "at or above"
+            lines.append(
+                f"{paper['task_labels'][task]}: on legged Go1s {paper['labels'][method]} reaches {mean:.1f} % of "
+                f"S.R., {verdict} Ours' {ours_mean:.1f} %"
+            )
+    return lines
+
+
+def _ended_by(results: list[dict], task: str, eval_name: str) -> str:
+    """The end of a finding line: which exceptions ended the evaluation's episodes, where its records name them."""
+    shares = [r["evals"][eval_name]["exceptions"] for r in matching(results, method="ours", task=task)
+              if "exceptions" in r["evals"].get(eval_name, {})]  # fmt: skip
+    if not shares:
+        return ""
+    mean = {kind: 100.0 * float(np.mean([s[kind] for s in shares])) for kind in shares[0]}
+    named = [f"{kind} {share:.0f} %" for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0]
+    return f"; episodes ended by {', '.join(named)} (mean over {len(shares)} seeds)" if named else ""

@@ -1,0 +1,52 @@
+"""The physics a finding needs, from the configs: an object's floor drag and one robot's push capacity.
+
+A team is needed only where an object's drag exceeds what one robot pushes. The tables say which is the case beside
+the single-agent baseline, with both numbers: the drag is mass x g x the task's friction range; the capacity is the
+tracker's at the mid level's largest command, the lesser of its force cap and its velocity loop's stall force
+(mass / lag x speed), which `mapush calibrate` fits to the legged Go1.
+"""
+
+from __future__ import annotations
+
+from mapush.config import compose_config, to_plain
+
+G = 9.81
+
+
+def object_drag(task: str, overrides: list[str] = ()) -> tuple[float, float]:
+    """N; the least and greatest floor drag of the task's object: its mass x g x the friction range's ends."""
+    obj = to_plain(compose_config([f"task={task}", *overrides]))["task"]["object"]
+    mass = obj.get("mass") or sum(part["mass"] for part in obj["parts"])
+    low, high = obj["friction"]
+    return mass * G * float(low), mass * G * float(high)
+
+
+def tracker_capacity(lowlevel: dict, speed: float) -> float:
+    """N; the most one tracker pushes at a standstill when told `speed` (m/s): its velocity loop's stall force
+    mass / lag x speed, capped at `max_force` (on the planar norm; a push straight along one axis under `axes`)."""
+    return min(float(lowlevel["max_force"]), float(lowlevel["mass"]) / float(lowlevel["lag"]) * speed)
+
+
+def one_robot_capacity(overrides: list[str] = ()) -> float | None:
+    """N; one tracker's capacity at the mid level's largest command under `overrides`; None for a legged low level
+    (its capacity is `mapush calibrate`'s measurement, results/calibration/)."""
+    cfg = to_plain(compose_config(["level=mid", *overrides]))
+    if cfg["lowlevel"]["name"] != "tracker":
+        return None
+    return tracker_capacity(cfg["lowlevel"], float(cfg["level"]["action_scale"][0]))
+
+
+def team_needed(task: str, overrides: list[str] = ()) -> str:
+    """One line: the object's drag against one robot's capacity, and whether one robot can move it alone."""
+    low, high = object_drag(task, overrides)
+    capacity = one_robot_capacity(overrides)
+    if capacity is None:
+        return f"drag {low:.1f}-{high:.1f} N"
+    verdict = (
+        "one robot cannot move it alone"
+        if low > capacity
+        else "one robot can move it alone"
+        if high <= capacity
+        else "one robot moves it only where the friction is low"
+    )
+    return f"drag {low:.1f}-{high:.1f} N against one robot's capacity {capacity:.1f} N: {verdict}"

@@ -1,0 +1,139 @@
+"""The scalability study (paper §IV-B-3, a figure there): the cylinder with 1-6 robots, and the paper's four
+readings of its figure judged here."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mapush.config import group_file
+from mapush.report import plots
+from mapush.report.cells import PAPER, collect, matching
+from mapush.report.formats import Table
+
+SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
+"""The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
+
+
+def _robots(n: int) -> str:
+    return f"{n} robot" + ("s" if n != 1 else "")
+
+
+def scale_table(results: list[dict], variant: str) -> Table:
+    """Scalability: rows the robot counts (the paper's, the study's and any run), columns the hierarchy's S.R. and
+    C.T. and the mid level's own S.R. (the paper: a figure)."""
+    mine = [r for r in results if r["table"] == "scale" and r["variant"] == variant]
+    counts = sorted(set(PAPER["scale"]["robots"]) | set(SCALE_ROBOTS) | {r["num_agents"] for r in mine})
+    rows, missing = [], []
+    for n in counts:
+        cells = [
+            collect(mine, "success_rate", 100.0, num_agents=n, eval="main"),
+            collect(mine, "completion_time", 1.0, num_agents=n, eval="main"),
+            collect(mine, "success_rate", 100.0, num_agents=n, eval="mid"),
+        ]
+        cells[1].digits = 2
+        if not cells[0].values:
+            missing.append(f"{_robots(n)}: no finished job")
+        elif not cells[2].values:
+            missing.append(f"{_robots(n)} / mid level: no evaluation of the mid level alone")
+        rows.append(([str(n)], cells))
+    findings = []
+    measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
+    if measured:
+        top = max(m[0] for m in measured)
+        best = [f"{n} ({mean:.1f} \u00b1 {std:.1f} % S.R.)" for mean, std, n in measured if np.isclose(mean, top)]
+        among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
+        findings.append(f"Best robot count{among} here: {' and '.join(best)}" + (", tied" if len(best) > 1 else ""))
+    findings += _scale_paper_findings(rows) + _reference_mid_finding(rows)
+    lines = {_robots(n): matching(mine, num_agents=n) for n in counts}
+    findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
+    drawn = plots.drawn_stages(mine)
+    findings += [v for label, r in lines.items() for v in plots.stage_verdicts(label, r, drawn)]
+    return Table(
+        f"scale_{variant}",
+        f"Scalability, cylinder ({variant})",
+        ["Robots"],
+        ["S.R. (%) \u2191", "C.T. \u2193", "Mid level S.R. (%) \u2191"],
+        rows,
+        missing,
+        "Whole hierarchy; C.T. normalized by the timeout; mean \u00b1 std over training seeds. Mid level: the "
+        "same jobs' mid level alone on its 20 s pushes. The paper gives a figure only.",
+        findings,
+        {"Cylinder": lines},
+    )
+
+
+def _scale_paper_findings(rows: list) -> list[str]:
+    """The paper's four readings of its scalability figure (paper IV-B-3; it gives no numbers), each judged on the
+    means over seeds of the whole hierarchy (S.R., and C.T. where the paper says "both metrics") and of the mid
+    level alone (S.R.), among the figure's robot counts that finished."""
+    figure = PAPER["scale"]["robots"]
+
+    def means(column: int) -> dict[int, float]:
+        return {int(labels[0]): float(np.mean(c[column].values)) for labels, c in rows
+                if c[column].values and int(labels[0]) in figure}  # fmt: skip
+
+    def spread(column: int, n: int) -> float:
+        return next(float(np.std(c[column].values)) for labels, c in rows if int(labels[0]) == n)
+
+    ct = means(1)
+
+    def one_struggles(sr: dict, column: int) -> tuple[bool, str] | None:
+        if 1 not in sr or len(sr) < 2:
+            return None
+        others = {n: v for n, v in sr.items() if n != 1}
+        low = min(others, key=others.get)
+        return sr[1] < others[low], f"1 robot {sr[1]:.1f} %, the lowest other: {_robots(low)} at {others[low]:.1f} %"
+
+    def two_improve(sr: dict, column: int) -> tuple[bool, str] | None:
+        if not {1, 2} <= sr.keys():
+            return None
+        gain, noise = sr[2] - sr[1], max(spread(column, 1), spread(column, 2))
+        return gain > noise, f"{gain:+.1f} points, the seeds' spread {noise:.1f}"
+
+    def three_best(sr: dict, column: int) -> tuple[bool, str] | None:
+        if 3 not in sr or len(sr) < 2:
+            return None
+        best = max(sr, key=sr.get)
+        holds, detail = best == 3, f"the highest S.R.: {_robots(best)}"
+        if column == 0 and 3 in ct:
+            fastest = min(ct, key=ct.get)
+            holds, detail = holds and fastest == 3, f"{detail}; the lowest C.T.: {_robots(fastest)}"
+        return holds, detail
+
+    def four_worse(sr: dict, column: int) -> tuple[bool, str] | None:
+        if not {3, 4} <= sr.keys():
+            return None
+        return sr[4] < sr[3], f"{sr[4] - sr[3]:+.1f} points from 3 robots to 4"
+
+    claims = {
+        "one robot struggles": one_struggles,
+        "two robots improve S.R. substantially on one": two_improve,
+        "three robots are best on both metrics": three_best,
+        "four robots do slightly worse than three": four_worse,
+    }
+    judged = {0: ("whole hierarchy", means(0)), 2: ("mid level alone", means(2))}
+    lines = []
+    for claim, judge in claims.items():
+        parts = []
+        for column, (what, sr) in judged.items():
+            verdict = judge(sr, column)
+            if verdict is not None:
+                parts.append(f"{what}: {'holds' if verdict[0] else 'does not hold'} ({verdict[1]})")
+        if parts:
+            lines.append(f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {'; '.join(parts)}")
+    return lines
+
+
+def _reference_mid_finding(rows: list) -> list[str]:
+    """The mid level at the reference robot count against the original's best stored cylinder mid level."""
+    ref = PAPER["scale"]["reference_mid"]
+    values = next((cells[2].values for labels, cells in rows if labels[0] == str(ref["robots"])), [])
+    if not values:
+        return []
+    mean, std, bar = float(np.mean(values)), float(np.std(values)), float(ref["success_rate"])
+    verdict = "at or above it" if mean >= bar else ("below it, within the seeds' spread" if bar - mean <= std
+                                                    else "below it")  # fmt: skip
+    return [
+        f"Mid level with {ref['robots']} robots: {mean:.1f} \u00b1 {std:.1f} % S.R. over {len(values)} seeds; "
+        f"the original's best stored cylinder mid level reached {bar:g} %: {verdict}"
+    ]

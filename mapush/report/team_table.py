@@ -1,0 +1,130 @@
+"""The team study's table and heatmaps (`conf/experiment/team.yaml`): per object, the mid level's S.R. for each
+robot count (rows) at each object mass (columns), each cell beside its capacity margin: the object's drag over what
+its robots push together (`physics.py`). A margin above 1 is a team that cannot move the object even all pushing
+at once; well below 1, fewer robots could."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mapush.config import group_file
+from mapush.report import plots
+from mapush.report.cells import collect
+from mapush.report.formats import Table
+from mapush.report.physics import object_drag, one_robot_capacity
+
+TEAM = group_file("experiment", "team")
+
+
+def eval_masses() -> dict[str, float]:
+    """Each evaluation of the study and the object mass (kg) it sets (`task.object.mass=M` among its overrides)."""
+    masses = {}
+    for name, spec in TEAM.evals.items():
+        for override in spec.overrides:
+            key, _, value = str(override).partition("=")
+            if key == "task.object.mass":
+                masses[name] = float(value)
+    return masses
+
+
+def capacity_margin(task: str, mass: float, robots: int, capacity: float | None) -> float | None:
+    """The object's drag at `mass` (the middle of its friction range) over `robots` x one robot's `capacity`."""
+    if not capacity:
+        return None
+    low, high = object_drag(task, [f"task.object.mass={mass}"])
+    return (low + high) / 2 / (robots * capacity)
+
+
+def team_table(results: list[dict], variant: str) -> Table:
+    """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin."""
+    mine = [r for r in results if r["table"] == "team" and r["variant"] == variant]
+    masses = eval_masses()
+    capacity = one_robot_capacity()
+    rows, missing, lines = [], [], {}
+    for task in TEAM.sweep.task:
+        for n in TEAM.sweep.agents:
+            jobs = [r for r in mine if r["task"] == task and r["num_agents"] == n]
+            lines[f"{task} / {n} robots"] = jobs
+            cells = []
+            for name, mass in masses.items():
+                cell = collect(jobs, "success_rate", 100.0, eval=name)
+                margin = capacity_margin(task, mass, n, capacity)
+                cell.note = f"margin {margin:.2f}" if margin is not None else ""
+                cells.append(cell)
+            if not jobs:
+                missing.append(f"{task} / {n} robots: no finished job")
+            rows.append(([task, str(n)], cells))
+    findings = _findings(rows, masses)
+    findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
+    return Table(
+        f"team_{variant}",
+        f"When is a team needed? Mid level, S.R. (%) by object mass ({variant})",
+        ["Object", "Robots"],
+        [f"{mass:g} kg" for mass in masses.values()],
+        rows,
+        missing,
+        "The mid level alone on its 20 s pushes, one policy per robot count trained over masses of "
+        f"{_range_text()} and evaluated at each mass; mean \u00b1 std over training seeds. Margin: the object's "
+        f"drag (mass x g x its mean friction) over the robots' summed push capacity ({capacity or 0:.1f} N each, the "
+        "calibrated tracker's): above 1 the team cannot move it even all pushing at once.",
+        findings,
+        {"Team": lines},
+    )
+
+
+def _range_text() -> str:
+    override = next(o for o in TEAM.overrides if str(o).startswith("task.object.mass_range="))
+    return str(override).partition("=")[2].replace(",", "-").strip("[]") + " kg"
+
+
+def _findings(rows: list, masses: dict[str, float]) -> list[str]:
+    """Per object and mass, the fewest robots that reach half success, and the margin they push at."""
+    found = []
+    by_task: dict[str, list] = {}
+    for (task, n), cells in rows:
+        by_task.setdefault(task, []).append((int(n), cells))
+    for task, team_rows in by_task.items():
+        parts = []
+        for k, mass in enumerate(masses.values()):
+            done = [(n, cells[k]) for n, cells in team_rows if cells[k].values]
+            if not done:
+                continue
+            enough = [(n, c) for n, c in done if np.mean(c.values) >= 50.0]
+            parts.append(
+                f"{mass:g} kg: {enough[0][0]} ({enough[0][1].note})" if enough else f"{mass:g} kg: none of {len(done)}"
+            )
+        if parts:
+            found.append(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts))
+    return found
+
+
+def team_plot(table: Table, path: Path) -> None:
+    """One heatmap per object: robots (rows) x mass (columns), coloured by S.R., each cell labelled with its S.R.
+    and capacity margin."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = list(dict.fromkeys(labels[0] for labels, _ in table.rows))
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.6), squeeze=False)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        rows = [(int(labels[1]), cells) for labels, cells in table.rows if labels[0] == task]
+        grid = np.array([[np.mean(c.values) if c.values else np.nan for c in cells] for _, cells in rows])
+        image = ax.imshow(grid, vmin=0, vmax=100, cmap="viridis", origin="lower", aspect="auto")
+        for i, (_, cells) in enumerate(rows):
+            for j, cell in enumerate(cells):
+                value = "n/a" if not cell.values else f"{np.mean(cell.values):.0f} %"
+                ax.text(j, i, f"{value}\n{cell.note}", ha="center", va="center", fontsize=7, color="w")
+        ax.set_xticks(range(len(table.columns)), table.columns)
+        ax.set_yticks(range(len(rows)), [str(n) for n, _ in rows])
+        ax.set_xlabel("object mass")
+        ax.set_ylabel("robots")
+        ax.set_title(task)
+        fig.colorbar(image, ax=ax, label="S.R. (%)")
+    fig.suptitle(table.title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
