@@ -51,9 +51,11 @@ def test_every_method_trains_one_iteration_per_stage_and_evaluates_2_episodes(cl
         assert set(result["stages"]) == stages
         assert set(result["stage_core_s"]) == stages and all(s > 0 for s in result["stage_core_s"].values())
         assert result["evals"]["main"]["episodes"] == 2
-        # the path-only reference is evaluated for Ours alone, the legged Go1s for Ours and SA
+        # the path-only references are evaluated for Ours and H+L (the scripted pusher), the legged Go1s for Ours
+        # and SA
         legged = {"go1"} if result["method"] in ("ours", "sa") else set()
-        assert set(result["evals"]) == {"main", *legged, *({"path_only"} if result["method"] == "ours" else ())}
+        path_only = {"path_only"} if result["method"] in ("ours", "hl") else set()
+        assert set(result["evals"]) == {"main", *legged, *path_only}
         assert 0.0 <= result["evals"]["main"]["success_rate"] <= 1.0
         for run_dir in map(Path, result["stages"].values()):
             assert sorted(p.name for p in run_dir.glob("model_*.pt")) == ["model_0.pt"]  # one iteration
@@ -271,7 +273,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     proc = cli("tables", "--runs", fixture_tables, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
-    assert "main_quick.{md,tex,csv,json}: 6/54 cells filled" in proc.stdout
+    assert "main_quick.{md,tex,csv,json}: 6/60 cells filled" in proc.stdout
     assert "scale_quick.{md,tex,csv,json}: 5/15 cells filled" in proc.stdout  # 1, 2, 3, 4 and 6 robots x 3
 
     md = (out / "main_quick.md").read_text()
@@ -284,7 +286,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert "- sa / cuboid / success_rate: no finished job" in md
     assert "- hl / cuboid / success_rate: no finished job" in md
     # Ours, path only, on the cuboid: 90 % and 80 % -> 85.0 +- 5.0, C.T. 0.55 +- 0.05; the paper has no such row
-    assert md.splitlines()[2].endswith("| Ours | Ours, path only | Ours, legged | SA, legged |")
+    assert md.splitlines()[2].endswith("| Ours | Ours, path only | H+L, path only | Ours, legged | SA, legged |")
     assert "| 75.0 \u00b1 5.0 (77.5 \u00b1 3.0) | 85.0 \u00b1 5.0 |" in md
     assert "| 0.65 \u00b1 0.05 (0.66 \u00b1 0.04) | 0.55 \u00b1 0.05 |" in md
     assert "- Ours, path only / tblock / success_rate: no finished job" in md
