@@ -7,6 +7,7 @@ import shutil
 import site
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -29,6 +30,9 @@ def test_a_wheel_in_a_fresh_venv_trains_and_evaluates_from_another_directory(tmp
         cwd=tmp_path,
     )
     wheel = next(dist.glob("mapush-*.whl"))
+    with zipfile.ZipFile(wheel) as packed:  # every shipped locomotion policy, the default's and go1_strong's
+        names = set(packed.namelist())
+    assert {f"mapush/lowlevel/pretrained/{n}/policy.pt" for n in ("go1", "go1_strong")} <= names
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", venv], check=True)
     python = venv / "bin" / "python"
