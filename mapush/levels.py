@@ -15,7 +15,8 @@ from omegaconf import DictConfig
 
 from mapush.config import sim_threads, to_plain
 from mapush.envs.high import HighPushEnv
-from mapush.envs.low import LocomotionEnv, locomotion_model
+from mapush.envs.low import LocomotionEnv
+from mapush.envs.low_scene import locomotion_model
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv

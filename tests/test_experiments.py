@@ -19,7 +19,8 @@ from conftest import MAPUSH
 from omegaconf import OmegaConf
 
 from mapush.config import group_options
-from mapush.experiments.pipeline import RESULT, iterations_for, stage_plan
+from mapush.experiments.pipeline import RESULT
+from mapush.experiments.stage_plan import iterations_for, stage_plan
 from mapush.experiments.workers import GRACE_S
 from mapush.logging.mcap_files import summary, training_scalars
 from mapush.logging.metrics import THREADS_TAG
@@ -220,7 +221,7 @@ def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_tr
 
     from mapush.config import compose_config
     from mapush.errors import BadInput
-    from mapush.experiments.pipeline import eval_stage
+    from mapush.experiments.stage_plan import eval_stage
 
     cfg = compose_config(["experiment=scale", "method=ours", "task=cylinder", "agents=3"], config_name="sweep")
     assert [eval_stage(cfg, spec) for spec in cfg.experiment.evals.values()] == ["high", "mid"]

@@ -12,10 +12,12 @@ from omegaconf import OmegaConf, open_dict
 
 from mapush.config import compose_config, load_run_config
 from mapush.errors import BadInput
-from mapush.experiments import pipeline, stages
+from mapush.experiments import pipeline, stage_plan, stages
 from mapush.experiments.archive import made_otherwise
-from mapush.experiments.pipeline import RESULT, SUPERSEDED, planned_stages, result_changes, run_job, stage_budget
+from mapush.experiments.pipeline import RESULT, SUPERSEDED, run_job
+from mapush.experiments.stage_plan import planned_stages, stage_budget
 from mapush.experiments.stages import compose_stage, identity_of
+from mapush.experiments.staleness import result_changes
 from mapush.experiments.sweep import sweep_overrides
 from mapush.rundir import find_runs
 
@@ -278,8 +280,8 @@ def _fake_result(cfg, identities: dict[str, str]) -> dict:
     store = Path(cfg.sweep_root) / "stages"
     evals = {}
     for name, spec in cfg.experiment.evals.items():
-        if pipeline.applies(spec, cfg.method.name):
-            legged = "lowlevel=go1" in pipeline.eval_overrides(spec)
+        if stage_plan.applies(spec, cfg.method.name):
+            legged = "lowlevel=go1" in stage_plan.eval_overrides(spec)
             walker = {"lowlevel_policy": {"sha256": SHIPPED_GO1_SHA256}} if legged else {}
             evals[name] = {"success_rate": 0.5, **walker}
     return {

@@ -11,7 +11,6 @@ from mapush.config import compose_config, to_plain
 from mapush.envs.mid import MidPushEnv
 from mapush.lowlevel import BACKENDS
 from mapush.sim.push import PushSim
-from mapush.sim.scene import OBJECT_BODY
 
 WALL_MASS = 1000.0
 """kg: an object this heavy (its floor drag about 5 kN) does not move under any robot: a wall."""
@@ -38,11 +37,7 @@ def _wall_layout(n: int, cfg: dict) -> dict[str, torch.Tensor]:
 
 
 def _make_wall(sim: PushSim) -> None:
-    body = sim.model.body(OBJECT_BODY).id
-    scale = WALL_MASS / sim.model.body_mass[body]
-    sim.batch.expand("body_mass")[:, body] = WALL_MASS
-    sim.batch.expand("body_inertia")[:, body] = sim.model.body_inertia[body] * scale
-    sim.batch.set_const()
+    sim.set_object_mass(np.arange(sim.num_envs), np.full(sim.num_envs, WALL_MASS))
 
 
 def _planar_forces(force_cap: str, command: list[float], cap: float = 30.0) -> np.ndarray:

@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config, load_run_config, to_plain
 from mapush.experiments import stages
-from mapush.experiments.pipeline import planned_stages
+from mapush.experiments.stage_plan import planned_stages
 from mapush.experiments.sweep import job_combos, sweep_overrides
 from mapush.rundir import find_runs
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 from mapush.config import compose_config
 from mapush.experiments import stages
-from mapush.experiments.pipeline import planned_stages
+from mapush.experiments.stage_plan import planned_stages
 from mapush.experiments.sweep import dry_run, job_combos, sweep_overrides
 from mapush.rundir import find_runs
 

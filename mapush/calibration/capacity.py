@@ -18,11 +18,12 @@ import numpy as np
 import torch
 
 from mapush.calibration.lags import PARKED_XY, run_steps
-from mapush.config import compose_config, to_plain
-from mapush.sim.scene import OBJECT_BODY, ROBOT_PREFIX
+from mapush.config import compose_config, group_file, to_plain
+from mapush.sim.scene import ROBOT_PREFIX
 from mapush.sim.shapes import object_hull
 
-PUSH_SPEED = 0.5
+MID = group_file("level", "mid")
+PUSH_SPEED = float(MID.action_scale[0])
 """m/s; the mid level's largest command (`level.action_scale`), as a robot pushing hard is told."""
 DRAG_GRID = np.arange(2.5, 82.5, 5.0)
 """N; the cuboid's floor drag in the capacity sweep: from a light push to beyond the feet's grip on the floor."""
@@ -34,7 +35,7 @@ STALL_SPEED = 0.05
 """m/s; an object slower than this in steady state is not being pushed along."""
 FALL_WINDOW_S = 4.0
 """s; how long each load is held, and the window P(L) is the probability of a fall within."""
-FALL_TILT = 0.8
+FALL_TILT = float(MID.exceptions.robot_tilt.params.max_rad)
 """rad; a fall, as the pushing levels' `robot_tilt` exception counts one (conf/level/mid.yaml)."""
 LOAD_FILTER_S = 0.2
 """s; the tracker low-passes its contact load over this before the fall model reads it, so that an impact of a few
@@ -78,13 +79,7 @@ def push_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.nd
     offset, heading = _starts(len(drag), seed)
 
     def set_drag(sim) -> None:
-        body = sim.model.body(OBJECT_BODY).id
-        mass = drag / (DRAG_FRICTION * G)
-        sim.batch.expand("body_mass")[:, body] = mass
-        sim.batch.expand("body_inertia")[:, body] = (
-            sim.model.body_inertia[body] * (mass / sim.model.body_mass[body])[:, None]
-        )
-        sim.batch.set_const()  # the constants derived from masses (e.g. the contacts' inverse weights)
+        sim.set_object_mass(np.arange(len(drag)), drag / (DRAG_FRICTION * G))
 
     commands = np.tile([PUSH_SPEED, 0.0, 0.0], (len(drag), 1))
     run = run_steps(cfg, commands, _behind_cuboid(cfg, offset, heading), SETTLE_S, PUSH_S, configure=set_drag)

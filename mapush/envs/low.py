@@ -30,78 +30,29 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 import torch
 
 from mapush.envs.core import EnvCore
+from mapush.envs.low_disturbances import Disturbances
+from mapush.envs.low_scene import (
+    LOAD_BODIES,
+    LOAD_GEOM_FRICTION,
+    ROBOT_NQ,
+    ROBOT_NV,
+    load_fractions,
+    locomotion_model,
+    teammate_fractions,
+)
 from mapush.errors import BadInput
 from mapush.lowlevel import backend_name
 from mapush.lowlevel import go1_constants as go1
-from mapush.lowlevel.go1 import Go1, proprioception, rotate_into_body, rotate_into_world
-from mapush.lowlevel.go1_model import go1_spec, standalone_spec
-from mapush.planning.geometry import rotate
+from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
 from mapush.sim.core import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
 TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")
 """The tracking errors (methods of `LocomotionEnv`) averaged over each episode and reported by its evaluation."""
-
-
-LOAD_BODIES = {"box": "load_box", "cylinder": "load_cylinder"}
-"""The free bodies a run with `randomize.load` adds, by shape; each episode with a load uses one, the other waits
-at its `PARKED_XY`."""
-ROBOT_NQ, ROBOT_NV = 7 + len(go1.JOINT_NAMES), 6 + len(go1.JOINT_NAMES)
-"""The Go1's columns of qpos and qvel (its free joint, then its joints), which come first: any load follows."""
-PARKED_XY = {"box": (100.0, 100.0), "cylinder": (100.0, -100.0)}
-"""m; where each load waits when not in use, beyond any robot's reach in an episode and apart from the other."""
-MATE_PREFIX = "mate{}/"
-"""The name prefix of teammate k, a Go1 attached to the scene after the robot and any loads."""
-MATE_PARKED_XY = (-100.0, 100.0)
-"""m; where teammate k stands when not in use (k m further along x), beyond reach and apart from the loads."""
-LOAD_GEOM_FRICTION = 0.1
-"""A load's own sliding friction, below the floor's and the Go1's: MuJoCo takes the larger of a contact's two, so
-the floor sets the load's drag (`resistance_n` picks its mass) and the robot's 1.0 its grip, as in a pushing scene."""
-
-
-def locomotion_model(cfg: dict) -> mujoco.MjModel:
-    """One Go1 on flat ground with the go1 backend's servo gains and the sim's timestep, and the loads and the
-    teammates where a run asks for them (`load_fractions`, `teammate_fractions`). The Go1's 12 actuators come
-    first."""
-    robot = cfg["lowlevel"]
-    spec = standalone_spec(robot["kp"], robot["kd"], cfg["sim"]["timestep"], robot.get("torque_limits"))
-    load = cfg["level"]["randomize"].get("load")  # runs made before the key have none
-    if any(load_fractions(cfg)):
-        box, cylinder = load["box_size_m"], load["cylinder_size_m"]
-        shapes = {
-            "box": (mujoco.mjtGeom.mjGEOM_BOX, [box[0] / 2, box[1] / 2, box[2] / 2], box[2] / 2),
-            "cylinder": (mujoco.mjtGeom.mjGEOM_CYLINDER, [cylinder[0], cylinder[1] / 2, 0.0], cylinder[1] / 2),
-        }
-        for shape, (kind, size, half_height) in shapes.items():
-            body = spec.worldbody.add_body(name=LOAD_BODIES[shape], pos=[*PARKED_XY[shape], half_height])
-            body.add_freejoint()
-            body.add_geom(type=kind, size=size, mass=1.0, friction=[LOAD_GEOM_FRICTION, 0.005, 0.0001])
-    for k in range(teammate_count(cfg)):
-        mate = go1_spec(robot["kp"], robot["kd"], robot.get("torque_limits"), foot_friction=robot["foot_friction"])
-        spec.attach(mate, frame=spec.worldbody.add_frame(), prefix=MATE_PREFIX.format(k))
-    return spec.compile()
-
-
-def load_fractions(cfg: dict) -> tuple[float, float]:
-    """The share of training and of evaluation episodes that start with a load ahead (0, 0 without the key)."""
-    load = cfg["level"]["randomize"].get("load") or {}
-    return float(load.get("fraction", 0.0)), float(cfg["level"].get("eval_load_fraction", 0.0))
-
-
-def teammate_fractions(cfg: dict) -> tuple[float, float]:
-    """The share of training and of evaluation episodes with teammates beside the robot (0, 0 without the key)."""
-    mates = cfg["level"]["randomize"].get("teammates") or {}
-    return float(mates.get("fraction", 0.0)), float(cfg["level"].get("eval_teammate_fraction", 0.0))
-
-
-def teammate_count(cfg: dict) -> int:
-    """How many teammate Go1s the scene holds: `randomize.teammates.count` where any episode uses them, else 0."""
-    return int(cfg["level"]["randomize"]["teammates"]["count"]) if any(teammate_fractions(cfg)) else 0
 
 
 @dataclass
@@ -119,7 +70,7 @@ class LocomotionState:
     trunk_z: torch.Tensor  # (E,) trunk box centre height, m
 
 
-class LocomotionEnv(EnvCore):
+class LocomotionEnv(Disturbances, EnvCore):
     """E Go1s on flat ground, each tracking its own velocity command; see the module docstring."""
 
     state: LocomotionState
@@ -164,18 +115,6 @@ class LocomotionEnv(EnvCore):
         self.state = None  # read at the first reset; the foot speeds need the previous foot positions
         self.drawn_geoms = np.array(drawn_geom_ids(self.model))
         self.reset(np.arange(E))
-
-    def _bind_teammates(self) -> None:
-        """The teammates' backend `mates` (a go1 backend walking them with the frozen locomotion policy; None
-        without teammates) and their parked places (k, 2). `mate_used` (E,) says which envs' episodes have them,
-        `lean` (E,) each env's lean toward the robot, m/s."""
-        k = teammate_count(self.cfg)
-        self.mates = Go1(self.cfg["lowlevel"]) if k else None
-        if self.mates:
-            self.mates.bind(self.model, [MATE_PREFIX.format(i) for i in range(k)])
-        self.mate_parked = np.array([[MATE_PARKED_XY[0] + i, MATE_PARKED_XY[1]] for i in range(k)])
-        self.mate_used = np.zeros(self.num_envs, dtype=bool)
-        self.lean = np.zeros(self.num_envs)
 
     def seed(self, seed: int) -> None:
         """Reseed the start draws: commands (torch) and poses, headings and pushes (numpy)."""
@@ -228,62 +167,6 @@ class LocomotionEnv(EnvCore):
         self.air_time[t] = 0.0
         for sums in self.tracking_error_sums.values():
             sums[t] = 0.0
-
-    def _place_loads(self, ids: np.ndarray, yaw: np.ndarray, commands: np.ndarray) -> None:
-        """A `load_fraction` of the episodes get one load, box or cylinder, at a random yaw, U(distance_m) ahead of
-        the trunk (to the cylinder's side, or the circle round the box's corners) along the commanded velocity (any
-        way for a command to stand or turn). The other load, and both in the other episodes, wait parked."""
-        load, n = self.cfg["level"]["randomize"]["load"], len(ids)
-        heading = yaw + np.arctan2(commands[:, 1], commands[:, 0])
-        still = np.linalg.norm(commands[:, :2], axis=1) < 0.1
-        heading[still] = self.rng.uniform(-math.pi, math.pi, size=int(still.sum()))
-        used = np.where(self.rng.random(n) < self.load_fraction, self.rng.integers(len(self.loads), size=n), -1)
-        gap = self.rng.uniform(*load["distance_m"], size=n)
-        spin = self.rng.uniform(-math.pi, math.pi, size=n)
-        reach = {"box": math.hypot(*load["box_size_m"][:2]) / 2, "cylinder": load["cylinder_size_m"][0]}
-        for k, (shape, body) in enumerate(zip(LOAD_BODIES, self.loads, strict=True)):
-            address = self.model.jnt_qposadr[body.jntadr[0]]
-            here = used == k
-            centre = go1.TRUNK_SIZE[0] / 2 + gap + reach[shape]  # a box's corner at most `gap` away, its side further
-            ahead = centre[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1)
-            xy = np.where(here[:, None], ahead, PARKED_XY[shape])
-            pose = np.zeros((n, 7))
-            pose[:, :2], pose[:, 2] = xy, self.model.body_pos[body.id][2]
-            pose[:, 3], pose[:, 6] = np.cos(spin / 2), np.sin(spin / 2)
-            self.sim.qpos[ids, address : address + 7] = pose
-
-    def _place_teammates(self, ids: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> None:
-        """A `teammate_fraction` of the episodes start with every teammate standing beside the robot, alternately
-        on its left and right (the third and fourth one robot-length and `row_gap_m` further back), `gap_m` from
-        its side, `along_m` ahead or behind, headed as it within `heading_rad`, each env with its own lean
-        (`lean_mps`); in the others they stand parked."""
-        mates, n, k = self.cfg["level"]["randomize"]["teammates"], len(ids), len(self.mate_parked)
-        used = self.rng.random(n) < self.teammate_fraction
-        self.mate_used[ids] = used
-        self.lean[ids] = np.where(used, self.rng.uniform(*mates["lean_mps"], size=n), 0.0)
-        length, width = self.robot["size"][:2]
-        side = np.where(np.arange(k) % 2 == 0, 1.0, -1.0)  # (k,) left, right, ...
-        lateral = side * (width + self.rng.uniform(*mates["gap_m"], size=(n, k)))
-        along = -(length + mates["row_gap_m"]) * (np.arange(k) // 2) + self.rng.uniform(*mates["along_m"], size=(n, k))
-        cos, sin = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-        offset = np.stack([cos * along - sin * lateral, sin * along + cos * lateral], -1)  # (n, k, 2)
-        placed = np.where(used[:, None, None], xy[:, None, :] + offset, self.mate_parked[None])
-        turn = self.rng.uniform(-mates["heading_rad"], mates["heading_rad"], size=(n, k))
-        heading = np.where(used[:, None], yaw[:, None] + turn, 0.0)
-        self.mates.place(self.sim.qpos, self.sim.qvel, ids, placed, heading)
-
-    def _drive_teammates(self) -> None:
-        """Every teammate in use walks at the robot's commanded velocity (world frame, from the robot's heading now)
-        plus its env's lean toward the robot; parked ones stand. Their policy writes their joint targets."""
-        qpos, qvel = self.sim.qpos, self.sim.qvel
-        command = np.concatenate([self.commands[:, :2].numpy(), np.zeros((self.num_envs, 1))], -1)
-        walk = rotate_into_world(self.robot_qpos[:, 3:7], command)[:, None, :2]  # (E, 1, 2)
-        mates = self.mates.read(qpos, qvel)
-        toward = self.robot_qpos[:, None, :2] - mates["xy"]
-        toward /= np.maximum(np.linalg.norm(toward, axis=-1, keepdims=True), 1e-6)
-        velocity = (walk + self.lean[:, None, None] * toward) * self.mate_used[:, None, None]  # (E, k, 2) world
-        body = rotate(velocity, mates["yaw"], inverse=True)  # into each teammate's frame
-        self.mates.command(self.sim.ctrl, qpos, qvel, np.concatenate([body, np.zeros_like(body[..., :1])], -1))
 
     def _sample_commands(self, n: int) -> torch.Tensor:
         spec = self.command_ranges
@@ -378,36 +261,6 @@ class LocomotionEnv(EnvCore):
         self.first_contact = (self.air_time > self.dt) & self.state.foot_contact
         self.landed_air_time = self.air_time * self.first_contact
         self.air_time = self.air_time * ~self.state.foot_contact
-
-    def _every(self, seconds: float) -> torch.Tensor:
-        """(E,) envs whose episode is at a multiple of `seconds` (at least one step) this step."""
-        return self.episode_step % max(1, round(seconds / self.dt)) == 0
-
-    def _push(self) -> None:
-        """Every `push_interval_s`, a random change of each robot's horizontal velocity (m/s)."""
-        rand = self.cfg["level"]["randomize"]
-        due = self._every(rand["push_interval_s"]).numpy()
-        if self.push_velocity > 0 and due.any():
-            ids = np.flatnonzero(due)
-            self.sim.qvel[ids, 0:2] += self.rng.uniform(-1, 1, size=(len(ids), 2)) * self.push_velocity
-
-    def _lean(self) -> None:
-        """Every `force_interval_s`, a horizontal force on each trunk of size U(0, `force_n`) N in a random
-        direction, held `force_duration_s`: the sustained load of pushing an object or being leaned on, which the
-        velocity pushes (`_push`) do not give."""
-        if self.force_n <= 0:
-            return
-        rand = self.cfg["level"]["randomize"]
-        self.force_steps_left -= 1
-        self.applied[self.force_steps_left == 0, self.trunk, :2] = 0.0
-        due = self._every(rand["force_interval_s"]).numpy()
-        if due.any():
-            ids = np.flatnonzero(due)
-            size = self.rng.uniform(0.0, self.force_n, size=len(ids))
-            heading = self.rng.uniform(-math.pi, math.pi, size=len(ids))
-            self.applied[ids, self.trunk, 0] = size * np.cos(heading)
-            self.applied[ids, self.trunk, 1] = size * np.sin(heading)
-            self.force_steps_left[ids] = max(1, round(rand["force_duration_s"] / self.dt))
 
     def _before_reset(self, done: torch.Tensor) -> None:
         """New commands every `resample_s`, after the step's were recorded."""

@@ -19,15 +19,10 @@ from pathlib import Path
 from mapush.atomic import write_text
 from mapush.config import compose_config
 from mapush.errors import BadInput
-from mapush.experiments.pipeline import (
-    RESULT,
-    SUPERSEDED,
-    every_stage_override,
-    planned_stages,
-    recorded_stage_seconds,
-    result_changes,
-)
+from mapush.experiments.pipeline import RESULT, SUPERSEDED, every_stage_override, recorded_stage_seconds
+from mapush.experiments.stage_plan import planned_stages
 from mapush.experiments.stages import IDENTITY_FILE, identity_of, stage_dir, stage_paths, stands_for, store_root
+from mapush.experiments.staleness import result_changes
 
 ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""

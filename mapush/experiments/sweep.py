@@ -25,17 +25,10 @@ from mapush.errors import BadInput, first_line
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
 from mapush.experiments.archive import load_results
-from mapush.experiments.pipeline import (
-    RESULT,
-    archived_result,
-    budget_of,
-    every_stage_override,
-    planned_stages,
-    result_changes,
-    run_job,
-    stage_plan,
-)
+from mapush.experiments.pipeline import RESULT, archived_result, every_stage_override, run_job
+from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.stages import STAGE_REF
+from mapush.experiments.staleness import result_changes
 from mapush.experiments.workers import SWEEP_PID, stop_with_the_sweep
 from mapush.levels import env_class
 

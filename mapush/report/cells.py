@@ -6,7 +6,7 @@ from pathlib import Path
 
 import yaml
 
-from mapush.experiments.pipeline import concerns
+from mapush.experiments.staleness import concerns
 from mapush.report import plots
 from mapush.report.formats import Cell
 

@@ -8,13 +8,20 @@ tracker's at the mid level's largest command, the lesser of its force cap and it
 
 from __future__ import annotations
 
+import functools
+
 from mapush.config import compose_config, to_plain
 
 G = 9.81
 
 
-def object_drag(task: str, overrides: list[str] = ()) -> tuple[float, float]:
+def object_drag(task: str, overrides=()) -> tuple[float, float]:
     """N; the least and greatest floor drag of the task's object: its mass x g x the friction range's ends."""
+    return _object_drag(task, tuple(overrides))
+
+
+@functools.cache  # the tables ask for each object's drag once per cell
+def _object_drag(task: str, overrides: tuple[str, ...]) -> tuple[float, float]:
     obj = to_plain(compose_config([f"task={task}", *overrides]))["task"]["object"]
     mass = obj.get("mass") or sum(part["mass"] for part in obj["parts"])
     low, high = obj["friction"]
@@ -27,16 +34,21 @@ def tracker_capacity(lowlevel: dict, speed: float) -> float:
     return min(float(lowlevel["max_force"]), float(lowlevel["mass"]) / float(lowlevel["lag"]) * speed)
 
 
-def one_robot_capacity(overrides: list[str] = ()) -> float | None:
+def one_robot_capacity(overrides=()) -> float | None:
     """N; one tracker's capacity at the mid level's largest command under `overrides`; None for a legged low level
     (its capacity is `mapush calibrate`'s measurement, results/calibration/)."""
+    return _one_robot_capacity(tuple(overrides))
+
+
+@functools.cache
+def _one_robot_capacity(overrides: tuple[str, ...]) -> float | None:
     cfg = to_plain(compose_config(["level=mid", *overrides]))
     if cfg["lowlevel"]["name"] != "tracker":
         return None
     return tracker_capacity(cfg["lowlevel"], float(cfg["level"]["action_scale"][0]))
 
 
-def team_needed(task: str, overrides: list[str] = ()) -> str:
+def team_needed(task: str, overrides=()) -> str:
     """One line: the object's drag against one robot's capacity, and whether one robot can move it alone."""
     low, high = object_drag(task, overrides)
     capacity = one_robot_capacity(overrides)

@@ -124,10 +124,10 @@ class PushSim(BatchSim):
         self.mocap_pos[ids, self.subgoal_mocap, :2] = lay["subgoal_xy"]
         self.geom_friction[np.ix_(ids, self.object_geoms, [0])] = lay["friction"][:, None, None]
         if "mass" in lay:
-            self._set_object_mass(ids, lay["mass"])
+            self.set_object_mass(ids, lay["mass"])
         self.forward(ids)
 
-    def _set_object_mass(self, ids: np.ndarray, mass: np.ndarray) -> None:
+    def set_object_mass(self, ids: np.ndarray, mass: np.ndarray) -> None:
         """The object of envs `ids` weighs `mass` (n,) kg; its inertia scales with it (the same shape), and the
         model's derived constants follow."""
         if self.object_mass is None:

@@ -1,0 +1,121 @@
+"""Whether a job's finished `result.json` still stands for what its experiment plans now: the same stages, the
+same evaluations, the same locomotion policy walking its legged evaluations (`result_changes`, `still_valid`), and
+which of a result's evaluations a reason concerns (`concerns`)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from mapush.config import apply_overrides, load_run_config, to_plain
+from mapush.experiments import stages
+from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, eval_overrides, eval_stage, evaluated_stage
+from mapush.lowlevel import backend_of
+
+
+def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
+    """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
+    a stage with the same identity (or one it was adopted from), with the same overrides and locomotion policy.
+    An evaluation that recorded no overrides (made before they were recorded) is taken as made with today's, as
+    `result_changes` takes it."""
+    same = _same_stages(result, cfg, planned)
+    kept = {}
+    for name, spec in cfg.experiment.evals.items():
+        record = result.get("evals", {}).get(name)
+        holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
+        holds = holds and record.get("overrides", eval_overrides(spec)) == eval_overrides(spec)
+        if holds and not _walker_changed(record, result, cfg, name, planned):
+            kept[name] = {**record, "overrides": eval_overrides(spec)}
+    curve, spec = result.get("curve"), budget_of(cfg).get("curve")
+    holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
+    if not holds or curve.get("every_env_steps") != spec.every_env_steps:
+        return kept, None
+    return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
+
+
+def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str, planned: list[PlannedStage]) -> bool:
+    """Whether the locomotion policy evaluation `name` would walk its robots with now (`lowlevel.policy`, or the
+    shipped one) is another than the one its `record` names; a legged evaluation that named none counts as
+    changed. The stage's run config says which policy, or where the run is gone (another machine, an archived
+    job), the stage's config as the experiment plans it now."""
+    spec = cfg.experiment.evals[name]
+    stage = eval_stage(cfg, spec)
+    run = result.get("stages", {}).get(stage)
+    if run and Path(run).is_dir():
+        stage_cfg = load_run_config(run)
+    else:
+        stage_cfg = OmegaConf.create(next(p.cfg for p in planned if p.name == stage))
+    lowlevel = to_plain(apply_overrides(stage_cfg, eval_overrides(spec)))["lowlevel"]
+    now = backend_of(lowlevel).policy_fingerprint(lowlevel)
+    # the policy's hash says which it is; its file's path moves with the checkout
+    return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
+
+
+def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
+    """Names of the planned stages that `result` was made with: the same identity, or one the planned stage was
+    adopted from (`stages.stands_for`, read from the store under `root`, by default the sweep root)."""
+    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    root = Path(cfg.sweep_root if root is None else root)
+    return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
+
+
+def _about_evaluation(name: str, what: str) -> str:
+    """A `result_changes` reason that concerns one evaluation only; `concerns` reads its name back."""
+    return f"evaluation {name!r} {what}"
+
+
+def _about_stages(changed: dict[str, tuple[str | None, str | None]]) -> str:
+    """A `result_changes` reason that names the stages whose identity changed (name: made -> planned), in the
+    plan's order; `concerns` reads the names back."""
+    return "its stages changed (" + ", ".join(f"{name}: {was} -> {now}" for name, (was, now) in changed.items()) + ")"
+
+
+def _evaluated_stage(result: dict, name: str) -> str | None:
+    """The stage whose run evaluation `name` of `result` loaded its checkpoint from, None when none is named."""
+    checkpoint = Path(result.get("evals", {}).get(name, {}).get("checkpoint", ""))
+    return next((stage for stage, run in result.get("stages", {}).items() if Path(run) in checkpoint.parents), None)
+
+
+def concerns(reason: str, result: dict, name: str) -> bool:
+    """Whether a `result_changes` reason about `result` concerns its evaluation `name`, so that a table marks that
+    evaluation's cells: a changed evaluation concerns only itself; changed stages concern the evaluations of those
+    stages and of every stage after them in the plan (trained on them), not a mid level evaluated alone whose high
+    level alone changed; any other reason (the set of evaluations, the curve) the whole job."""
+    evaluation = re.match(r"evaluation '([^']+)' ", reason)
+    if evaluation:
+        return evaluation.group(1) == name
+    changed = re.match(r"its stages changed \((.*)\)$", reason)
+    order, evaluated = list(result.get("stages", {})), _evaluated_stage(result, name)
+    if not changed or evaluated is None:
+        return True
+    names = re.findall(r"(\w+): \S+ -> \S+", changed.group(1))
+    return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in names)
+
+
+def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> str:
+    """What makes a job's finished `result` stale against its experiment now, "" when nothing does: another stage
+    identity (a budget, reward or tracker value changed), or other evaluations or curve than the experiment asks for.
+    `root` holds the stage records (`stage.yaml`) of the result's stages: the sweep root, or the archive.
+    """
+    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    wanted = {stage.name: stage.identity for stage in planned}
+    same = _same_stages(result, cfg, planned, root)
+    changed = [name for name in {**wanted, **made} if name not in same]  # the plan's order, then stages it lacks
+    if changed:
+        return _about_stages({name: (made.get(name), wanted.get(name)) for name in changed})
+    evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
+    if sorted(result.get("evals", {})) != evals:
+        return f"its evaluations changed ({', '.join(sorted(result.get('evals', {})))} -> {', '.join(evals)})"
+    for name in evals:  # results made before evaluations recorded their overrides are taken as they are
+        recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
+        if recorded is not None and recorded != now:
+            return _about_evaluation(name, f"changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})")
+        if _walker_changed(result["evals"][name], result, cfg, name, planned):
+            if "lowlevel_policy" not in result["evals"][name]:
+                return _about_evaluation(name, "recorded no locomotion policy")
+            return _about_evaluation(name, "walked its robots with another locomotion policy than now")
+    if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
+        return "its learning curve was added or dropped"
+    return ""
