@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -108,3 +109,41 @@ def test_two_seeds_measure_the_tracker_alike(tmp_path):
 def test_a_bad_repeat_count_is_one_line(cli):
     proc = cli("calibrate", "--repeats", "0")
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0 and "--repeats 0" in proc.stderr
+
+
+@pytest.mark.parametrize("gain", [60.0, 110.0])
+def test_the_push_gain_fit_recovers_a_known_force_speed_line(gain):
+    """A robot that pushes drag = gain x (0.5 m/s - speed) until it stalls, measured with noise."""
+    rng = np.random.default_rng(2)
+    drag = np.repeat(capacity.DRAG_GRID, 6)
+    speed = np.clip(capacity.PUSH_SPEED - drag / gain + rng.normal(0, 0.01, drag.shape), 0, None)
+    assert capacity.fit_push_gain(drag, speed) == pytest.approx(gain, rel=0.05)
+
+
+def test_a_robot_that_moves_nothing_has_no_push_gain():
+    drag = np.repeat(capacity.DRAG_GRID, 2)
+    assert capacity.fit_push_gain(drag, np.zeros(drag.shape)) is None
+
+
+def test_the_contact_fall_midpoint_is_the_lowest_at_which_the_tracker_falls_pushing_no_more_than_the_go1():
+    """Against a Go1 that never fell pushing, the fit's midpoint keeps the tracker up in the push sweep, and a
+    midpoint a newton lower does not."""
+    tracker = ["lowlevel=tracker", "lowlevel.force_cap=planar"]
+    curve = {"load_n": 15.0, "width_n": 0.5}
+    load_n = capacity.fit_contact_fall_load(tracker, curve, 0.0, repeats=1, seed=0)
+    assert load_n is not None and load_n > curve["load_n"]
+
+    def falls(midpoint: float) -> float:
+        fall = capacity.fall_override({"load_n": midpoint, "width_n": 0.5, **capacity.FALL_TIMES})
+        return capacity.push_sweep([*tracker, f"lowlevel.fall={fall}"], 1, 0)["fell"].mean()
+
+    assert falls(load_n) == 0.0 and falls(load_n - 1.0) > 0.0
+
+
+def test_the_shipped_tracker_falls_pushing_no_more_often_than_the_go1_it_was_calibrated_on():
+    """The committed calibration's Go1 push sweep against the tracker of conf/lowlevel/tracker.yaml, same starts."""
+    measured = json.loads((Path(__file__).resolve().parents[1] / "results" / "calibration" / "calibration.json").read_text())
+    sweep = capacity.push_sweep(["lowlevel=tracker"], measured["repeats"], measured["seed"])
+    assert sweep["fell"].mean() <= np.mean(measured["push"]["fell"])
+    speeds = np.array(measured["push"]["object_speed"])
+    assert np.abs(np.median(sweep["speed"]) - np.median(speeds)) < 0.05  # it pushes as fast as the Go1 did

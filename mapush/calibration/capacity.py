@@ -3,11 +3,20 @@
 - *Push capacity*: each robot starts right behind the cuboid and walks into it at the mid level's largest command
   (`PUSH_SPEED`), the cuboid's floor drag set per env by its mass (`DRAG_GRID`, N). The object's steady speed falls
   as the drag grows; the capacity is the drag at which the median robot no longer moves it (`STALL_SPEED`),
-  interpolated between grid points (`fit_capacity`). The same sweep is run on the fitted tracker for the plot.
+  interpolated between grid points (`fit_capacity`). Below it the speed falls along a line, drag = gain x
+  (PUSH_SPEED - speed): the robot's push gain, N per m/s (`fit_push_gain`), which the tracker's velocity actuators
+  take as their gain. The same sweep is run on the fitted tracker for the plot.
 - *Falls under a held load*: each robot walks at `PUSH_SPEED` while a constant horizontal force (`LOAD_GRID`, N)
   pushes its trunk back, against its starting heading, as the object pushes back on a robot that pushes it, for
   `FALL_WINDOW_S`. A robot that tilts beyond the pushing levels' `robot_tilt` threshold has fallen. A logistic
   P(L) = 1 / (1 + exp(-(L - load_n) / width_n)) is fitted to the falls by maximum likelihood (`fit_fall_curve`).
+
+The two experiments load the Go1 in two ways, and it bears them differently: pushing, it holds every contact load up to
+its capacity without a fall (the object's reaction, at the nose), while a load held back on its trunk topples it at a
+lower one. The tracker sees only its contact load, so its fall model takes the held-load curve's width and the
+lowest midpoint at or above the held-load one at which the tracker, in the same push sweep, falls no more often than
+the Go1 did (`fit_contact_fall_load`): a tracker falls when something drives into it harder than its Go1 could
+hold, never for pushing as hard as its Go1 does.
 
 Starts are drawn per env (a lateral offset and a heading error) from `--seed`, so two seeds measure twice.
 """
@@ -27,8 +36,9 @@ PUSH_SPEED = float(MID.action_scale[0])
 """m/s; the mid level's largest command (`level.action_scale`), as a robot pushing hard is told."""
 DRAG_GRID = np.arange(2.5, 82.5, 5.0)
 """N; the cuboid's floor drag in the capacity sweep: from a light push to beyond the feet's grip on the floor."""
-LOAD_GRID = np.arange(0.0, 127.5, 5.0)
-"""N; the held loads of the fall sweep: from none to twice the feet's grip on the floor (0.55 x 12 kg x g = 65 N)."""
+LOAD_GRID = np.arange(0.0, 126.0, 1.0)
+"""N; the held loads of the fall sweep: from none to twice the feet's grip on the floor (0.55 x 12 kg x g = 65 N),
+1 N apart so that the fall curve's width is resolved (at 5 N apart the Go1's curve was a step)."""
 DRAG_FRICTION = 0.5
 """The cuboid's sliding friction in the capacity sweep; its mass sets the drag (m = drag / (friction g))."""
 STALL_SPEED = 0.05
@@ -40,6 +50,8 @@ FALL_TILT = float(MID.exceptions.robot_tilt.params.max_rad)
 LOAD_FILTER_S = 0.2
 """s; the tracker low-passes its contact load over this before the fall model reads it, so that an impact of a few
 milliseconds does not count as a held load (a Go1 stride at its 3 Hz gait lasts about 0.33 s)."""
+FALL_TIMES = {"window_s": FALL_WINDOW_S, "filter_s": LOAD_FILTER_S}
+"""The tracker's `fall` model's time constants, s: the window P(L) is measured over, and the load's low-pass."""
 SETTLE_S = 1.0
 """s of standing before each experiment's command."""
 PUSH_S, STEADY_S = 6.0, 2.0
@@ -141,6 +153,48 @@ def fit_capacity(drag: np.ndarray, speed: np.ndarray, stall: float = STALL_SPEED
         return float(grid[0])
     d0, d1, v0, v1 = grid[k - 1], grid[k], median[k - 1], median[k]
     return float(d0 + (v0 - stall) / (v0 - v1) * (d1 - d0))
+
+
+def fit_push_gain(
+    drag: np.ndarray, speed: np.ndarray, command: float = PUSH_SPEED, stall: float = STALL_SPEED
+) -> float | None:
+    """The push gain k (N per m/s) of the line drag = k (command - speed) through the median steady speeds that
+    still move the object (above `stall`), least squares through the origin; None with fewer than two such drags."""
+    grid = np.unique(drag)
+    median = np.array([np.median(speed[drag == d]) for d in grid])
+    moving = median > stall
+    if moving.sum() < 2:
+        return None
+    shortfall = command - median[moving]
+    return float((grid[moving] * shortfall).sum() / (shortfall**2).sum())
+
+
+def fall_override(fall: dict) -> str:
+    """A `fall` model as the value of a Hydra override, `{load_n:37.2,width_n:0.47,...}`."""
+    return "{" + ",".join(f"{k}:{v:g}" for k, v in fall.items()) + "}"
+
+
+def fit_contact_fall_load(
+    tracker: list[str], curve: dict[str, float], go1_falls: float, repeats: int, seed: int, resolution: float = 0.5
+) -> float | None:
+    """The lowest fall midpoint (N, to `resolution`) from the held-load fit's `curve["load_n"]` up to the top of
+    `DRAG_GRID` at which the tracker of `tracker` (overrides, its `fall` model given `curve`'s width) falls in the
+    push sweep no more often than the Go1's share `go1_falls`; None when none does. The falls only grow as the
+    midpoint drops (the same seed draws the same pushes and thresholds), so a bisection finds it."""
+
+    def falls(load_n: float) -> float:
+        fall = fall_override({"load_n": load_n, "width_n": curve["width_n"], **FALL_TIMES})
+        return float(push_sweep([*tracker, f"lowlevel.fall={fall}"], repeats, seed)["fell"].mean())
+
+    low, high = float(curve["load_n"]), float(DRAG_GRID[-1])
+    if falls(low) <= go1_falls:
+        return low
+    if falls(high) > go1_falls:
+        return None
+    while high - low > resolution:
+        mid = (low + high) / 2
+        low, high = (low, mid) if falls(mid) <= go1_falls else (mid, high)
+    return high
 
 
 def fall_probability(load: np.ndarray, load_n: float, width_n: float) -> np.ndarray:

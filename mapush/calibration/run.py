@@ -1,15 +1,17 @@
 """`mapush calibrate`: measure a legged low level and write the tracker that stands for it.
 
 Three experiments on the robot that the overrides choose (default `lowlevel=go1`, its shipped policy):
-- free step responses -> the tracker's `lag` and `yaw_lag` (`lags.py`);
-- walking into a cuboid of growing drag -> its push capacity, the tracker's `max_force` on the planar norm
-  (`capacity.py`);
-- walking under a growing held load -> its fall curve, the tracker's `fall` model (`capacity.py`).
+- free step responses -> the tracker's `yaw_lag` (`lags.py`); the linear steps' own first-order fit is reported;
+- walking into a cuboid of growing drag -> its push capacity, the tracker's `max_force` on the planar norm, and its
+  force-speed line, whose push gain sets the tracker's `lag` = mass / gain (`capacity.py`): the tracker's velocity
+  actuator F = gain (v_cmd - v) is that line, so it pushes each drag at the Go1's speed;
+- walking under a growing held load -> its fall curve, whose width the tracker's `fall` model takes; its midpoint is
+  the lowest at which the tracker falls pushing no more often than the Go1 (`capacity.py`).
 
-The fitted values replace those keys in `conf/lowlevel/tracker.yaml` (each line says what it was calibrated against
-and when), except a lag the robot does not follow (`STEADY_MIN`), a capacity beyond the sweep, or a fall curve with no
-fall, which are reported instead and stay as they were. `calibration.json` (every measurement) and `calibration.png`
-(the robot's responses against the fitted tracker's) go to the output dir.
+The fitted values replace those keys in the tracker config (each line says what it was calibrated against and when),
+except a yaw lag the robot does not follow (`STEADY_MIN`), a capacity or push gain the sweep cannot give, or a fall
+curve with no fall, which are reported instead and stay as they were. `calibration.json` (every measurement) and
+`calibration.png` (the robot's responses against the fitted tracker's) go to the output dir.
 """
 
 from __future__ import annotations
@@ -27,7 +29,6 @@ from mapush.calibration import capacity as cap
 from mapush.calibration.lags import (
     AXES,
     LAG_GRID,
-    LAG_OF_AXIS,
     STEADY_MIN,
     fit_lag,
     free_layout,
@@ -76,45 +77,56 @@ def calibrate(
     free = run_steps(free_cfg, commands, free_layout(len(commands), 0.5), settle_s, duration_s)
     n = len(steps)
     linear = np.concatenate([free["robot_vel"][:n, :, 0], free["robot_vel"][n : 2 * n, :, 1]])
-    lags = {
-        "lag": fit_lag(linear, np.concatenate([commands[:n, 0], commands[n : 2 * n, 1]]), free["dt"]),
-        "yaw_lag": fit_lag(free["robot_vel"][2 * n :, :, 2], commands[2 * n :, 2], free["dt"]),
-    }
+    free_lag = fit_lag(linear, np.concatenate([commands[:n, 0], commands[n : 2 * n, 1]]), free["dt"])
+    yaw_lag = fit_lag(free["robot_vel"][2 * n :, :, 2], commands[2 * n :, 2], free["dt"])
     tail = max(1, round(0.5 / free["dt"]))  # steady state: the last 0.5 s
     steady = steady_fractions(free["robot_vel"], commands, tail)
-    untrusted = {LAG_OF_AXIS[axis]: share for axis, share in steady.items() if share < STEADY_MIN}
-    warnings = [
-        f"{key}: the robot holds {share:.0%} of its step command after {duration_s:g} s, which no first-order lag "
-        f"does; {key} left as it was in {config_path}"
-        for key, share in untrusted.items()
-    ]
-    # push capacity and falls under a held load
+    warnings = []
+    fitted: dict = {}
+    if steady["yaw_rate"] < STEADY_MIN:
+        warnings.append(
+            f"yaw_lag: the robot holds {steady['yaw_rate']:.0%} of its yaw-rate step after {duration_s:g} s, which "
+            f"no first-order lag does; yaw_lag left as it was in {config_path}"
+        )
+    else:
+        fitted["yaw_lag"] = yaw_lag
+    # push capacity and force-speed line, and falls under a held load
     push = cap.push_sweep(reference, repeats, seed)
     capacity = cap.fit_capacity(push["drag"], push["speed"])
+    gain = cap.fit_push_gain(push["drag"], push["speed"])
     falls = cap.fall_sweep(reference, repeats, seed)
     curve = cap.fit_fall_curve(falls["load"], falls["fell"])
-    fitted: dict = {key: value for key, value in lags.items() if key not in untrusted}
+    mass = float(OmegaConf.load(config_path)["mass"])
+    if gain is None or not LAG_GRID[0] <= mass / gain <= LAG_GRID[-1]:
+        warnings.append(f"lag: the push sweep gives no force-speed line (push gain {gain}); left as it was")
+    else:
+        fitted["lag"] = round(mass / gain, 4)
     if capacity is None:
         warnings.append(f"max_force: the robot still moves a {cap.DRAG_GRID[-1]:g} N drag; left as it was")
     else:
         fitted["max_force"] = round(capacity, 1)
+    contact_load = None
     if curve is None:
         warnings.append(f"fall: no fall under loads up to {cap.LOAD_GRID[-1]:g} N; left as it was")
     else:
-        fitted["fall"] = {
-            "load_n": round(curve["load_n"], 1),
-            "width_n": round(curve["width_n"], 2),
-            "window_s": cap.FALL_WINDOW_S,
-            "filter_s": cap.LOAD_FILTER_S,
-        }
+        # the tracker as fitted so far (lag, capacity), its fall midpoint matched to the Go1's falls while pushing
+        trial = {**OmegaConf.to_container(OmegaConf.load(config_path)), **fitted, "force_cap": "planar"}
+        so_far = ["lowlevel=tracker", *_as_overrides(trial, fall=False)]
+        contact_load = cap.fit_contact_fall_load(so_far, curve, float(push["fell"].mean()), repeats, seed)
+        if contact_load is None:
+            warnings.append("fall: the tracker falls pushing more often than the Go1 at every midpoint; left as it was")
+        else:
+            fitted["fall"] = {"load_n": round(contact_load, 1), "width_n": round(curve["width_n"], 2), **cap.FALL_TIMES}
     write_tracker_config(config_path, fitted, source)
     # the tracker as written, through the same push sweep
     tracker = cap.push_sweep(["lowlevel=tracker", *_as_overrides(OmegaConf.load(config_path))], repeats, seed)
     summary = {
-        "fitted": {**lags, **{k: v for k, v in fitted.items() if k not in lags}},
+        "fitted": {"free_lag": free_lag, "yaw_lag": yaw_lag, **{k: v for k, v in fitted.items() if k != "yaw_lag"}},
         "written": fitted,
         "capacity_n": capacity,
+        "push_gain": gain,
         "fall_curve": curve,
+        "contact_fall_load_n": contact_load,
         "steady_fraction": steady,
         "warnings": warnings,
         "reference": reference,
@@ -132,6 +144,7 @@ def calibrate(
             "object_speed": push["speed"].tolist(),
             "fell": push["fell"].tolist(),
             "tracker_object_speed": tracker["speed"].tolist(),
+            "tracker_fell": tracker["fell"].tolist(),
         },
         "falls": {"load_n": falls["load"].tolist(), "fell": falls["fell"].tolist(), "window_s": cap.FALL_WINDOW_S},
     }
@@ -140,12 +153,14 @@ def calibrate(
     return summary
 
 
-def _as_overrides(tracker: dict) -> list[str]:
-    """The tracker config's calibrated keys as Hydra overrides."""
-    fall = tracker.get("fall")
-    fall_text = "null" if fall is None else "{" + ",".join(f"{k}:{v}" for k, v in fall.items()) + "}"
+def _as_overrides(tracker: dict, fall: bool = True) -> list[str]:
+    """The tracker config's calibrated keys as Hydra overrides (`fall` too, unless told not)."""
     keys = ("lag", "yaw_lag", "max_force", "force_cap")
-    return [f"lowlevel.{k}={tracker[k]}" for k in keys] + [f"lowlevel.fall={fall_text}"]
+    overrides = [f"lowlevel.{k}={tracker[k]}" for k in keys]
+    if fall:
+        model = tracker.get("fall")
+        overrides.append("lowlevel.fall=" + ("null" if model is None else cap.fall_override(model)))
+    return overrides
 
 
 def write_tracker_config(path: Path, fitted: dict, source: str) -> None:
@@ -182,11 +197,11 @@ def plot_calibration(summary: dict, out: Path) -> None:
     per_axis = len(commands) // 3
     for axis in range(3):
         ax = axes[axis]
-        lag = summary["fitted"]["yaw_lag" if axis == 2 else "lag"]
+        lag = summary["fitted"]["yaw_lag"] if axis == 2 else summary["fitted"].get("lag", summary["fitted"]["free_lag"])
         for k in range(axis * per_axis, (axis + 1) * per_axis):
             line = ax.plot(t, legged[k, :, axis], label=f"measured, step {commands[k, axis]:g}")[0]
             ax.plot(t, commands[k, axis] * (1 - np.exp(-t / lag)), "--", color=line.get_color())
-        ax.set_title(f"free {AXES[axis]} (tracker lag {lag:.3f} s)")
+        ax.set_title(f"free {AXES[axis]} (lag {lag:.3f} s, dashed)")
         ax.set_xlabel("s")
         ax.legend(fontsize=7)
     push = summary["push"]
@@ -197,6 +212,10 @@ def plot_calibration(summary: dict, out: Path) -> None:
         grid = np.unique(drag)
         ax.plot(grid, [np.median(speed[drag == d]) for d in grid], style, label=f"{label} (median)")
         ax.scatter(drag, speed, s=6, alpha=0.4)
+    if summary["push_gain"] is not None:
+        line = np.linspace(0.0, push["speed_command"] * summary["push_gain"], 50)
+        ax.plot(line, push["speed_command"] - line / summary["push_gain"], "k:", lw=1,
+                label=f"push gain {summary['push_gain']:.0f} N s/m")
     if summary["capacity_n"] is not None:
         ax.axvline(summary["capacity_n"], color="k", lw=0.8, label=f"capacity {summary['capacity_n']:.1f} N")
     ax.set_title(f"walking into a load at {push['speed_command']:g} m/s")
@@ -210,6 +229,8 @@ def plot_calibration(summary: dict, out: Path) -> None:
     if summary["fall_curve"] is not None:
         fine = np.linspace(grid[0], grid[-1], 200)
         ax.plot(fine, cap.fall_probability(fine, **summary["fall_curve"]), "--", label="fit")
+    if summary["contact_fall_load_n"] is not None:
+        ax.axvline(summary["contact_fall_load_n"], color="k", lw=0.8, label="tracker's contact fall load")
     ax.set_title(f"falls within {summary['falls']['window_s']:g} s under a held load")
     ax.set_xlabel("held load, N")
     ax.set_ylim(-0.05, 1.05)
