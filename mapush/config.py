@@ -15,6 +15,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput, first_line
+from mapush.migrations import absent_meant, stamp
 from mapush.schema import check_config
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
@@ -177,18 +178,14 @@ def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], comman
         write_yaml(directory / "overrides.yaml", list(overrides))
         write_yaml(directory / "config.yaml", cfg, resolve=True)
     write_yaml(hydra_dir / "hydra.yaml", {"hydra": hydra_node})
-    write_json(run_dir / "meta.json", meta)
-
-
-ABSENT_MEANT = {"level.path.plan_in_training": False}
-"""Settings whose default changed after they were added: a run saved before one existed ran as this value."""
+    write_json(run_dir / "meta.json", stamp(meta))
 
 
 def load_run_config(run_dir: Path) -> DictConfig:
     """The composed config a run was made with; BadInput if `run_dir` is not a run.
 
     Root settings, and settings of the run's level at any depth, added to mapush after the run was made (e.g.
-    `log`) take their current defaults, or the value runs ran with before they existed (`ABSENT_MEANT`);
+    `log`) take their current defaults, or the value runs ran with before they existed (`migrations.ABSENT_MEANT`);
     everything the run saved stays as it was.
     """
     path = Path(run_dir) / "config.yaml"
@@ -215,11 +212,7 @@ def load_run_config(run_dir: Path) -> DictConfig:
     for table in _term_tables(run):  # a term the run saved is the run's, not merged with today's of its name
         for term, spec in OmegaConf.select(run, table).items():
             OmegaConf.update(cfg, f"{table}.{term}", spec, merge=False)
-    for key, value in ABSENT_MEANT.items():
-        parent, _, leaf = key.rpartition(".")
-        node = OmegaConf.select(run, parent)
-        if node is not None and leaf not in node:
-            OmegaConf.update(cfg, key, value)
+    absent_meant(run, cfg)
     mid = cfg.get("mid")
     if mid and not Path(mid).is_absolute() and (Path(run_dir) / mid).exists():  # a shipped hierarchy's own mid level
         cfg.mid = str((Path(run_dir) / mid).resolve())

@@ -13,17 +13,18 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
+from mapush.commands.plan import make_planner
 from mapush.config import sim_threads, to_plain
 from mapush.envs.high import HighPushEnv
-from mapush.envs.low import LocomotionEnv
+from mapush.envs.low import TRACKING_ERRORS, LocomotionEnv
 from mapush.envs.low_scene import locomotion_model
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv
+from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
+from mapush.logging.foxglove_scene import SceneLayout
 from mapush.logging.go1_scene import Go1Layout
-from mapush.logging.scene import SceneLayout
-from mapush.plan import make_planner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for
@@ -34,12 +35,22 @@ from mapush.schema import check_config
 
 @dataclass(frozen=True)
 class Level:
-    """A trainable level: its env class and what `make_env` must hand it besides the config."""
+    """A trainable level: its env class, what `make_env` must hand it besides the config, and what evaluation and
+    checkpoint loading need to know of it (so that neither asks which level it holds)."""
 
     env: type
     layout: Callable[[dict], object] = SceneLayout.from_config  # what episode logs draw of a config's scene
     frozen_mid: bool = False  # drives the robots through a frozen mid level (`mid=RUN_DIR`)
     planner: bool = False  # plans reference paths with OMPL (`level.path.plan_at_eval`, `plan_in_training`)
+    walks_robots: bool = True  # its robots are walked by a low level, whose locomotion policy an eval records
+    tracking: tuple[str, ...] = ()  # per-episode tracking errors its episodes end with; with them, its exception
+    # rate is reported as its `fall_rate` (the locomotion level)
+    width_hint: Callable[[int], str] | None = None  # what a checkpoint's observation width says of its config
+
+
+def agents_hint(width: int) -> str:
+    """The agent count a mid-level observation of `width` is made for, as an override to try."""
+    return f"task.num_agents={agents_for_local_dim(width)}"
 
 
 def go1_layout(cfg: dict) -> Go1Layout:
@@ -48,8 +59,8 @@ def go1_layout(cfg: dict) -> Go1Layout:
 
 
 LEVELS = {
-    "low": Level(LocomotionEnv, layout=go1_layout),
-    "mid": Level(MidPushEnv),
+    "low": Level(LocomotionEnv, layout=go1_layout, walks_robots=False, tracking=TRACKING_ERRORS),
+    "mid": Level(MidPushEnv, width_hint=agents_hint),
     "mid_long": Level(LongMidPushEnv),
     "high": Level(HighPushEnv, frozen_mid=True, planner=True),
     "high_nav": Level(NavHighPushEnv, planner=True),
@@ -146,5 +157,10 @@ def build_for_eval(cfg: dict, checkpoint: Path):
     """The env, rsl-rl's vec env over it and the checkpoint's deterministic policy, as `mapush eval` and
     `mapush play` run them; BadInput when the checkpoint does not fit the config."""
     env, runner = build(cfg, None, 0, evaluation=True)
-    load_checkpoint(runner, checkpoint, obs_width(runner), f"task {cfg['task']['name']} with {env.num_agents} agents")
+    load_into(runner, cfg, checkpoint, f"task {cfg['task']['name']} with {env.num_agents} agents")
     return env, runner.env, runner.get_inference_policy()
+
+
+def load_into(runner, cfg: dict, checkpoint: Path, what: str, weights: bool = False) -> int:
+    """`load_checkpoint` into a runner of `cfg`'s level, a misfit's message hinting what the checkpoint fits."""
+    return load_checkpoint(runner, checkpoint, obs_width(runner), what, weights, hint=level_of(cfg).width_hint)

@@ -16,7 +16,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from mapush.envs.mid import MidPushEnv
 from mapush.logging.episode_stats import JAM_M, TOUCH_M, Track, _scene_geometry, episode_stats, read_tracks
 from mapush.logging.episodes import EpisodeRecorder
-from mapush.logging.scene import SceneLayout, scene_update
+from mapush.logging.foxglove_scene import SceneLayout, scene_update
 from mapush.planning.geometry import corners
 
 

@@ -62,7 +62,7 @@ def test_summary_is_the_mean_and_population_std_over_seeds():
         {"success_rate": 0.7, "completion_time": 0.4, "completion_time_s": 8.0, "timeout_s": 20.0,
          "exceptions": {"robot_tilt": 0.1, "object_tilt": 0.1}},
     ]  # fmt: skip
-    cfg = {"task": {"name": "cuboid", "num_agents": 2}}
+    cfg = {"task": {"name": "cuboid", "num_agents": 2}, "level": {"name": "mid"}}
     out = summarize(cfg, "model_9.pt", 50, [0, 1], per_seed)
     assert out["success_rate"] == pytest.approx(0.6) and out["success_rate_std"] == pytest.approx(0.1)
     assert out["completion_time"] == pytest.approx(0.5) and out["completion_time_std"] == pytest.approx(0.1)

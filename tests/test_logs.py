@@ -25,10 +25,10 @@ from mcap.reader import make_reader
 from mapush.envs.mid import MidPushEnv
 from mapush.levels import scene_layout
 from mapush.logging.episodes import EpisodeRecorder
+from mapush.logging.foxglove_scene import SceneLayout
 from mapush.logging.layout import episode_layout
 from mapush.logging.mcap_files import summary
 from mapush.logging.metrics import McapLogWriter
-from mapush.logging.scene import SceneLayout
 from mapush.rewards.manager import RewardManager
 
 REPO = Path(__file__).resolve().parents[1]
@@ -341,7 +341,7 @@ from mapush.config import compose_config, to_plain
 from mapush.envs.mid import MidPushEnv
 from mapush.levels import scene_layout
 from mapush.logging.episodes import EpisodeRecorder
-from mapush.logging.scene import SceneLayout
+from mapush.logging.foxglove_scene import SceneLayout
 cfg = to_plain(compose_config(["debug=smoke", "level.episode_length_s=0.2"]))
 env = MidPushEnv(cfg, num_envs=1)
 recorder = EpisodeRecorder(sys.argv[1] + "/episodes.mcap", SceneLayout.from_config(cfg), list(env.rewards.terms),
@@ -488,7 +488,7 @@ def test_plot_draws_a_png_from_a_smoke_run(cli, smoke_run, tmp_path):
 def test_plot_overlays_runs_that_differ_only_in_seed_as_one_group(smoke_run, run_copy, tmp_path):
     import shutil
 
-    from mapush.plot import group_runs, mean_std
+    from mapush.commands.plot import group_runs, mean_std
 
     other_seed = tmp_path / "seed1"
     shutil.copytree(smoke_run, other_seed)

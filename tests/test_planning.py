@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import torch
 
+from mapush.commands.plan import random_map
 from mapush.envs.resets import goal_clearance, sample_high_layout, sample_obstacles, start_clearance, train_corridor
 from mapush.errors import BadInput
-from mapush.plan import random_map
 from mapush.planning.geometry import corners, point_distance, polygon_gap
 from mapush.planning.paths import length, random_curved_paths, resample
 from mapush.planning.planner import ObjectPlanner
@@ -149,7 +149,7 @@ def _plan_in_fresh_process(cfg_file, seeds_before: int) -> list:
     process (OMPL's seed generator is process-wide)."""
     script = f"""
 import json
-from mapush.plan import random_map
+from mapush.commands.plan import random_map
 from mapush.planning.planner import ObjectPlanner
 cfg = json.load(open({str(cfg_file)!r}))
 other = ObjectPlanner(cfg["level"]["planner"], 24.0, 0.85, seed=11)

@@ -9,9 +9,9 @@ import pytest
 import torch
 from stand_ins import stand_in_env
 
+from mapush.config_terms import resolve_term
 from mapush.errors import BadInput
 from mapush.rewards.manager import RewardManager
-from mapush.terms import resolve_term
 
 REACHED = {"func": "mapush.rewards.terms:subgoal_reached", "weight": 10.0}
 EXCEPTION = {"func": "mapush.rewards.terms:exception", "weight": -5.0}

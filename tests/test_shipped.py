@@ -12,10 +12,10 @@ import torch
 from conftest import _run_cli
 from omegaconf import OmegaConf
 
+from mapush.commands.ship import without_machine_paths
 from mapush.eval.numerics import computes_alike
 from mapush.rl.policy import load_policy
 from mapush.rundir import PACKAGE, SHIPPED_LOWLEVEL, shipped_names, shipped_run
-from mapush.ship import without_machine_paths
 
 HIERARCHIES = [n for n in shipped_names() if not (SHIPPED_LOWLEVEL / n).is_dir() and not n.endswith("/mid")]
 """The shipped pushing hierarchies by their high level (not the locomotion policies, not the mid levels)."""

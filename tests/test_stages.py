@@ -19,6 +19,7 @@ from mapush.experiments.stage_plan import planned_stages, stage_budget
 from mapush.experiments.stages import compose_stage, identity_of
 from mapush.experiments.staleness import result_changes
 from mapush.experiments.sweep import sweep_overrides
+from mapush.migrations import UNSET_LATER_KEYS
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
@@ -140,11 +141,11 @@ def test_the_robots_of_2026_11_28_make_every_stage_new():
     ],
 )
 def test_a_key_added_after_stages_were_trained_is_no_part_of_an_identity_at_its_default(key, default, other):
-    """`stages.UNSET_LATER_KEYS`: a key at the value that leaves a stage as it was before the key existed stays
+    """`migrations.UNSET_LATER_KEYS`: a key at the value that leaves a stage as it was before the key existed stays
     out of the identity, so a stage made before the key keeps its identity; at another value it is another stage."""
     import copy
 
-    assert key in stages.UNSET_LATER_KEYS
+    assert key in UNSET_LATER_KEYS
 
     def stage(value: str) -> dict:
         return compose_stage(["level=mid", "task=cylinder", f"{key}={value}"], lambda c: 10)
@@ -342,7 +343,7 @@ def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(c
     assert "0 finished; 2 stages to run; 2 to train" in cli(*args, "archive=null").stdout
     job = sweep_dir / "method=sa,seed=0,task=cylinder"
     job.mkdir(parents=True)  # Hydra makes a job's dir
-    assert run_job(cfg, job, 1) == json.loads(archived.read_text())
+    assert run_job(cfg, job, 1) == pipeline.read_result(archived)  # as read today: with its format_version
     assert "archived in" in capsys.readouterr().out
     assert not (root / "stages").exists() and not (job / RESULT).exists()  # nothing trained, nothing written
     # a changed budget is another high-level stage: the archived result does not stand for it
@@ -364,10 +365,11 @@ def test_a_job_refuses_code_older_than_the_package_files_and_trains_nothing(tmp_
 def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp_path):
     cfg = _job_cfg(tmp_path)
     result = _fake_result(cfg, {stage.name: stage.identity for stage in planned_stages(cfg)})
-    assert result_changes(result, cfg, planned_stages(cfg)) == ""
+    assert result_changes(result, cfg, planned_stages(cfg)) is None
     longer = _job_cfg(tmp_path, "experiment.budgets.smoke.stages.high.env_steps=1600")
     changes = result_changes(result, longer, planned_stages(longer))
-    assert changes.startswith("its stages changed (high: ") and "mid" not in changes
+    assert changes.kind == "stages" and changes.stages == ("high",)
+    assert str(changes).startswith("its stages changed (high: ") and "mid" not in str(changes)
 
 
 def test_a_result_made_otherwise_than_planned_now_is_told_from_its_job_dir(tmp_path):
@@ -376,15 +378,15 @@ def test_a_result_made_otherwise_than_planned_now_is_told_from_its_job_dir(tmp_p
     now = {stage.name: stage.identity for stage in planned_stages(cfg)}
     job = {"experiment": "main", "budget": "smoke", "overrides": ["debug=smoke"]}
     job["job_dir"] = str(tmp_path / "main_smoke_debug-smoke" / "method=sa,seed=0,task=cylinder")
-    assert made_otherwise(_fake_result(cfg, now) | job) == ""
+    assert made_otherwise(_fake_result(cfg, now) | job) is None
     earlier = _fake_result(cfg, {**now, "high": "0123456789abcdef"}) | job  # a high level of another recipe
-    assert made_otherwise(earlier) == f"its stages changed (high: 0123456789abcdef -> {now['high']})"
+    assert str(made_otherwise(earlier)) == f"its stages changed (high: 0123456789abcdef -> {now['high']})"
     # another job's axes (the seed) plan other stages than the result's
     other_seed = job | {"job_dir": job["job_dir"].replace("seed=0", "seed=1")}
-    assert made_otherwise(_fake_result(cfg, now) | other_seed).startswith("its stages changed (")
+    assert str(made_otherwise(_fake_result(cfg, now) | other_seed)).startswith("its stages changed (")
     # nothing to tell: stage runs outside a store, or an experiment that no longer composes
-    assert made_otherwise({"stages": {"high": str(tmp_path / "run")}} | job) == ""
-    assert made_otherwise(_fake_result(cfg, now) | job | {"experiment": "gone"}) == ""
+    assert made_otherwise({"stages": {"high": str(tmp_path / "run")}} | job) is None
+    assert made_otherwise(_fake_result(cfg, now) | job | {"experiment": "gone"}) is None
 
 
 @pytest.mark.slow
@@ -403,13 +405,14 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert json.loads((job / SUPERSEDED).read_text()) == first
     assert identity_of(Path(again["stages"]["mid"])) == planned_stages(again_cfg)[0].identity
     assert identity_of(Path(again["stages"]["mid"])) != identity_of(Path(first["stages"]["mid"]))
-    assert result_changes(again, again_cfg, planned_stages(again_cfg)) == ""
+    assert result_changes(again, again_cfg, planned_stages(again_cfg)) is None
     # an evaluation that changed is made again; what still holds (the other evaluation, the curve) is kept
     shorter = compose_config([*longer, "rerun_changed=true", "experiment.evals.t40=['level.episode_length_s=30']"],
                              config_name="sweep")  # fmt: skip
-    assert result_changes(again, shorter, planned_stages(shorter)) == (
-        "evaluation 't40' changed (level.episode_length_s=40 -> level.episode_length_s=30)"
-    )
+    change = result_changes(again, shorter, planned_stages(shorter))
+    assert (change.kind, change.evaluation) == ("evaluation", "t40")
+    assert str(change) == "evaluation 't40' changed (level.episode_length_s=40 -> level.episode_length_s=30)"
+    assert change.concerns(again, "t40") and not change.concerns(again, "t20")
     checkpoints = sorted(Path(again["stages"]["mid"]).glob("model_*.pt"))
     third = run_job(shorter, job, 1)
     assert third["evals"]["t20"] == again["evals"]["t20"] and third["curve"] == again["curve"]
@@ -428,17 +431,17 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     shipped = Path(walker["file"])
     assert shipped.name == "policy.pt" and walker["sha256"] == hashlib.sha256(shipped.read_bytes()).hexdigest()[:16]
     assert "lowlevel_policy" not in fourth["evals"]["t20"]  # the tracker has no policy
-    assert result_changes(fourth, legged, planned_stages(legged)) == ""
+    assert result_changes(fourth, legged, planned_stages(legged)) is None
     gone = {name: str(tmp_path / "gone" / Path(path).relative_to(tmp_path)) for name, path in fourth["stages"].items()}
     elsewhere = {**fourth, "stages": gone}  # the same stages' runs, on a machine that is not this one
     elsewhere["evals"] = {**fourth["evals"], "t40": {**fourth["evals"]["t40"]}}
     elsewhere["evals"]["t40"]["lowlevel_policy"] = {**walker, "file": "/another/checkout/policy.pt"}
-    assert result_changes(elsewhere, legged, planned_stages(legged)) == ""  # the same policy in another checkout
+    assert result_changes(elsewhere, legged, planned_stages(legged)) is None  # the same policy in another checkout
     fourth["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # as if the shipped policy had been replaced
     stale = "evaluation 't40' walked its robots with another locomotion policy than now"
-    assert result_changes(fourth, legged, planned_stages(legged)) == stale
+    assert str(result_changes(fourth, legged, planned_stages(legged))) == stale
     elsewhere["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # and its runs gone: the plan says which
-    assert result_changes(elsewhere, legged, planned_stages(legged)) == stale
+    assert str(result_changes(elsewhere, legged, planned_stages(legged))) == stale
 
 
 def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_shape(cli, tmp_path):

@@ -219,27 +219,29 @@ def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
 
 
 def test_a_job_with_one_stale_evaluation_or_stage_marks_only_the_cells_made_of_it():
+    from mapush.experiments.staleness import Change
     from mapush.report.cells import collect as _collect
 
-    def job(name: str, reason: str) -> dict:
+    def job(name: str, change: Change) -> dict:
         stages = {"mid": "stages/m1/mid/run", "high": "stages/h1/high/run"}
         evals = {
             "main": {"success_rate": 0.8, "checkpoint": "stages/h1/high/run/model_48.pt"},
             "go1": {"success_rate": 0.5, "checkpoint": "stages/h1/high/run/model_48.pt"},
             "mid": {"success_rate": 0.7, "checkpoint": "stages/m1/mid/run/model_999.pt"},
         }
-        return {"job_dir": name, "method": "ours", "stages": stages, "evals": evals, "made_otherwise": reason}
+        return {"job_dir": name, "method": "ours", "stages": stages, "evals": evals, "made_otherwise": change}
 
     def marked(result: dict) -> set[str]:
         return {name for name in result["evals"] if _collect([result], "success_rate", 100.0, eval=name).otherwise}
 
-    assert marked(job("a", "evaluation 'go1' walked its robots with another locomotion policy than now")) == {"go1"}
+    assert marked(job("a", Change("evaluation", "walked another way", evaluation="go1"))) == {"go1"}
     # the high level retrained on the same mid level: the mid level's own cells stand
-    assert marked(job("b", "its stages changed (high: h0 -> h1)")) == {"main", "go1"}
+    assert marked(job("b", Change("stages", "high changed", stages=("high",)))) == {"main", "go1"}
     # a retrained mid level makes every cell of the job other, the high level trained on it included
-    assert marked(job("c", "its stages changed (mid: m0 -> m1, high: h0 -> h1)")) == {"main", "go1", "mid"}
-    assert marked(job("d", "its stages changed (mid: m0 -> m1)")) == {"main", "go1", "mid"}
-    assert marked(job("e", "its evaluations changed (main -> go1, main)")) == {"main", "go1", "mid"}
+    assert marked(job("c", Change("stages", "both changed", stages=("mid", "high")))) == {"main", "go1", "mid"}
+    assert marked(job("d", Change("stages", "mid changed", stages=("mid",)))) == {"main", "go1", "mid"}
+    assert marked(job("e", Change("evaluations", "main -> go1, main"))) == {"main", "go1", "mid"}
+    assert marked(job("f", None)) == set()
 
 
 def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli, tmp_path):

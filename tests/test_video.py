@@ -305,7 +305,7 @@ def test_a_high_level_video_frames_the_object_and_the_target():
     for both (the object alone, 9 m away, left a 10+ m target out of the picture)."""
     import mujoco
 
-    from mapush.viz.scene import FRAMING, EnvView
+    from mapush.viz.env_scene import FRAMING, EnvView
 
     view = SimpleNamespace(camera_cfg={"track": True, "distance": 9.0}, success_distance=1.0)
     camera = mujoco.MjvCamera()

@@ -214,8 +214,13 @@ def plot_calibration(summary: dict, out: Path) -> None:
         ax.scatter(drag, speed, s=6, alpha=0.4)
     if summary["push_gain"] is not None:
         line = np.linspace(0.0, push["speed_command"] * summary["push_gain"], 50)
-        ax.plot(line, push["speed_command"] - line / summary["push_gain"], "k:", lw=1,
-                label=f"push gain {summary['push_gain']:.0f} N s/m")
+        ax.plot(
+            line,
+            push["speed_command"] - line / summary["push_gain"],
+            "k:",
+            lw=1,
+            label=f"push gain {summary['push_gain']:.0f} N s/m",
+        )
     if summary["capacity_n"] is not None:
         ax.axvline(summary["capacity_n"], color="k", lw=0.8, label=f"capacity {summary['capacity_n']:.1f} N")
     ax.set_title(f"walking into a load at {push['speed_command']:g} m/s")

@@ -42,13 +42,13 @@ def train(
                 raise BadInput(f"--resume takes only train.iterations=N as an override, got {override!r}")
             iterations = int(value)
         prepare_training_video(load_run_config(resume))  # before MuJoCo is imported: it picks the GL backend
-        from mapush import train as training
+        from mapush.commands import train as training
 
         training.resume(resume, iterations)
         return
     cfg = compose_config(overrides)
     prepare_training_video(cfg)
-    from mapush import train as training
+    from mapush.commands import train as training
 
     training.train(cfg, overrides, command=" ".join(["mapush", *sys.argv[1:]]))
 
@@ -149,7 +149,7 @@ def ship(
     seeds: str = typer.Option("0,1", "--seeds", help="Comma-separated seeds of that evaluation."),
 ) -> None:
     """Ship a finished run as a slim run dir (actor, config, TorchScript and ONNX policies) and evaluate it."""
-    from mapush.ship import ship as write_shipped
+    from mapush.commands.ship import ship as write_shipped
 
     if episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")

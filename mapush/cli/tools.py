@@ -57,7 +57,7 @@ def plan(
     """Plan the object's path through a random long-horizon map with OMPL (level=high's planner settings)."""
     import json
 
-    from mapush import plan as planning
+    from mapush.commands import plan as planning
     from mapush.config import compose_config, to_plain
 
     if maps < 1:
@@ -153,7 +153,7 @@ def plot(
     smooth: int = typer.Option(5, "--smooth", help="Moving-average window in logged points (1 = raw)."),
 ) -> None:
     """Draw learning curves (success rate, reward terms) from metrics.mcap as a PNG."""
-    from mapush.plot import plot_runs
+    from mapush.commands.plot import plot_runs
 
     if out is None:
         out = run_dirs[0] / "curves.png" if len(run_dirs) == 1 else Path("curves.png")

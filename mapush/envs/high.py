@@ -19,8 +19,8 @@ import numpy as np
 import torch
 
 from mapush.envs import observations as obs_terms
-from mapush.envs.core import exception_names
-from mapush.envs.push import PushEnv
+from mapush.envs.base import exception_names
+from mapush.envs.pushing import PushEnv
 from mapush.envs.resets import sample_high_layout, sample_obstacles
 from mapush.errors import BadInput
 from mapush.planning.geometry import near_gaps, rectangles, rotate, transform

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from mapush.envs.core import EnvCore
+from mapush.envs.base import EnvCore
 from mapush.envs.low_disturbances import Disturbances
 from mapush.envs.low_scene import (
     LOAD_BODIES,
@@ -48,7 +48,7 @@ from mapush.errors import BadInput
 from mapush.lowlevel import backend_name
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
-from mapush.sim.core import BatchSim
+from mapush.sim.batch import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
 TRACKING_ERRORS = ("velocity_error", "yaw_rate_error")

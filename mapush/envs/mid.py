@@ -1,7 +1,7 @@
 """The mid-level pushing env: robots push the object to a nearby subgoal (paper III-C, App. A).
 
 Vectorized over envs E and agents A; no Python loop over either in a step. The step skeleton, observations and
-exceptions come from the env core (`mapush.envs.core`); this level supplies its start layouts, the subgoal
+exceptions come from the env core (`mapush.envs.base`); this level supplies its start layouts, the subgoal
 distance, success and the step's commands. Observation and exception terms: `conf/level/mid.yaml`.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from mapush.envs.push import PushEnv
+from mapush.envs.pushing import PushEnv
 from mapush.envs.resets import sample_mid_layout
 
 

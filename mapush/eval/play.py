@@ -1,7 +1,7 @@
 """`mapush play`: a run's deterministic policy pushing in MuJoCo's native viewer (`mujoco.viewer.launch_passive`),
 one env, episode after episode, paced to real time, until the window is closed.
 
-The viewer shows the same picture as the videos (`mapush.viz.scene`): the model at env 0's state plus the
+The viewer shows the same picture as the videos (`mapush.viz.env_scene`): the model at env 0's state plus the
 subgoal's success disc, the target, the reference path and the Go1's velocity arrows as user geoms. It is synced
 at every recorder capture, so the high level shows every mid-level step, not only its decisions.
 """
@@ -16,7 +16,7 @@ import torch
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.levels import build_for_eval
 from mapush.rundir import resolve_checkpoint
-from mapush.viz.scene import EnvView
+from mapush.viz.env_scene import EnvView
 
 
 class ViewerFollower:

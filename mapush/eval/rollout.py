@@ -17,10 +17,9 @@ import torch
 
 from mapush.atomic import locked, remove_leftovers, write_json
 from mapush.config import apply_overrides, load_run_config, to_plain
-from mapush.envs.core import exception_names
-from mapush.envs.low import TRACKING_ERRORS
+from mapush.envs.base import exception_names
 from mapush.eval.numerics import machine_record
-from mapush.levels import build_for_eval, scene_layout
+from mapush.levels import build_for_eval, level_of, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.lowlevel import backend_of
@@ -45,7 +44,7 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
     for recorder in recorders:
         recorder.watch(watched, env.frame_dt, f"seed {seed}", from_start=True)
         env.recorders.append(recorder)
-    outcomes = first_episodes(env, vec, policy, seed)
+    outcomes = first_episodes(env, vec, policy, seed, level_of(cfg).tracking)
     planner = getattr(env, "planner", None)
     if planner is not None and planner.wall_clock_stops:  # plans cut by seconds, not work: machine-dependent
         outcomes["planner_wall_clock_stops"] = planner.wall_clock_stops
@@ -57,8 +56,10 @@ def run_episodes(cfg: dict, checkpoint: Path, episodes: int, seed: int, recorder
     return outcomes
 
 
-def first_episodes(env, vec, policy, seed: int) -> dict:
-    """Run `policy` (observations -> actions) until every env of `vec` has ended its first episode; outcomes."""
+def first_episodes(env, vec, policy, seed: int, tracking: tuple[str, ...] = ()) -> dict:
+    """Run `policy` (observations -> actions) until every env of `vec` has ended its first episode; outcomes.
+    `tracking`: the per-episode tracking errors the level's episodes end with (`Level.tracking`), averaged, and
+    then its exception rate is its `fall_rate`."""
     episodes = env.num_envs
     finished = torch.zeros(episodes, dtype=torch.bool)
     success = torch.zeros(episodes, dtype=torch.bool)
@@ -66,7 +67,7 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
     planner_failure = torch.zeros(episodes, dtype=torch.bool)
     kind = torch.full((episodes,), -1)  # the exception that ended each failed episode (`env.exception_names`)
     time_s = torch.zeros(episodes)
-    tracking = {name: torch.zeros(episodes) for name in TRACKING_ERRORS}  # the low level: each episode's means
+    errors_of = {name: torch.zeros(episodes) for name in tracking}  # each episode's mean tracking errors
     path = getattr(env, "path", None)  # the high levels: the first episodes' reference paths, before any reset
     reference = {"path_length_m": path_length(path).mean().item()} if path is not None else {}
     obs = vec.get_observations()
@@ -92,17 +93,15 @@ def first_episodes(env, vec, policy, seed: int) -> dict:
                 planner_failure |= end["planner_failure"] & first
             time_s[first] = end["time_s"][first]
             kind[first] = end["exception_kind"][first].long()
-            if TRACKING_ERRORS[0] in end:  # the low level
-                for name, errors in tracking.items():
-                    errors[first] = end[name][first]
+            for name, errors in errors_of.items():
+                errors[first] = end[name][first]
             finished |= end["done"]
     if show:
         print("\r\033[K", end="", file=sys.stderr, flush=True)  # clear the progress line
     timeout_s = env.max_episode_length * env.dt
     completion_s = torch.where(success, time_s, torch.full_like(time_s, timeout_s))
-    low_level = {}
-    if TRACKING_ERRORS[0] in vec.last_info["episode_end"]:
-        low_level = {name: errors.mean().item() for name, errors in tracking.items()}
+    low_level = {name: errors.mean().item() for name, errors in errors_of.items()}
+    if tracking:
         low_level["fall_rate"] = exception.float().mean().item()
     return {
         **low_level,
@@ -222,13 +221,13 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
         "per_seed": per_seed,
         "machine": machine_record(),  # whether a reproduction can expect these bits (docs/reproducibility.md)
     }
-    lowlevel, level = cfg.get("lowlevel"), cfg.get("level", {}).get("name")
+    lowlevel, level = cfg.get("lowlevel"), level_of(cfg)
     walker = backend_of(lowlevel).policy_fingerprint(lowlevel) if lowlevel else None
-    if walker and level != "low":  # the locomotion policy that walked the robots of a pushing level
+    if walker and level.walks_robots:  # the locomotion policy that walked the robots of a pushing level
         result["lowlevel_policy"] = walker
     # figures only some levels record, averaged over seeds: the high level's reference path length (how far it had
     # to push), the low level's tracking errors and falls (docs/usage.md)
-    for key in ("path_length_m", *TRACKING_ERRORS, "fall_rate"):
+    for key in ("path_length_m", *level.tracking, "fall_rate"):
         if key in per_seed[0]:
             result[key] = float(np.mean([r[key] for r in per_seed]))
     return result

@@ -19,10 +19,10 @@ from pathlib import Path
 from mapush.atomic import write_text
 from mapush.config import compose_config
 from mapush.errors import BadInput
-from mapush.experiments.pipeline import RESULT, SUPERSEDED, every_stage_override, recorded_stage_seconds
+from mapush.experiments.pipeline import RESULT, SUPERSEDED, every_stage_override, read_result, recorded_stage_seconds
 from mapush.experiments.stage_plan import planned_stages
 from mapush.experiments.stages import IDENTITY_FILE, identity_of, stage_dir, stage_paths, stands_for, store_root
-from mapush.experiments.staleness import result_changes
+from mapush.experiments.staleness import Change, result_changes
 
 ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""
@@ -93,7 +93,7 @@ def load_results(roots: list[Path]) -> list[dict]:
         for path in _result_files(root, skip=inner):
             if path.name != RESULT:
                 continue
-            result = json.loads(path.read_text())
+            result = read_result(path)
             result["job_dir"] = str(path.parent)
             key = job_key(path)
             if key not in chosen or str(result.get("finished", "")) > str(chosen[key].get("finished", "")):
@@ -101,15 +101,15 @@ def load_results(roots: list[Path]) -> list[dict]:
     return [chosen[key] for key in sorted(chosen)]
 
 
-def made_otherwise(result: dict) -> str:
+def made_otherwise(result: dict) -> Change | None:
     """What makes a finished `result` other than its experiment plans the job now (another recipe: a budget, a
-    reward or tracker value, an evaluation), "" when nothing does or when that cannot be told (a result without
+    reward or tracker value, an evaluation), None when nothing does or when that cannot be told (a result without
     stages in a store, or whose experiment no longer composes). The job is composed from the axes its dir is named
     by (Hydra's `override_dirname`, e.g. `agents=2,method=ours,seed=0,task=cylinder`), its experiment, budget and
     stage overrides; its stages' records are read from the root it lies under (`<root>/<sweep>/<job>/`)."""
     job_dir = Path(result["job_dir"])
     if not any(identity_of(Path(path)) for path in result.get("stages", {}).values()):
-        return ""
+        return None
     axes = [axis for axis in job_dir.name.split(",") if "=" in axis]
     extra = [every_stage_override(result["overrides"])] if result.get("overrides") else []
     try:
@@ -118,4 +118,4 @@ def made_otherwise(result: dict) -> str:
         )
         return result_changes(result, cfg, planned_stages(cfg), job_dir.parent.parent)
     except (BadInput, KeyError, ValueError):
-        return ""
+        return None

@@ -24,8 +24,8 @@ from pathlib import Path
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from mapush import train as training
 from mapush.atomic import write_json
+from mapush.commands import train as training
 from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
@@ -43,6 +43,7 @@ from mapush.experiments.stage_plan import (
 )
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes, still_valid
+from mapush.migrations import stamp, upgrade
 from mapush.rl.runner import POLICY_FILE
 from mapush.rundir import PACKAGE, checkpoints, find_runs, is_complete
 
@@ -52,6 +53,12 @@ but read the config files anew for each job."""
 
 
 RESULT = "result.json"
+"""A finished job's record, written by `run_job`, read by `read_result`."""
+
+
+def read_result(path: Path) -> dict:
+    """A job's `result.json` (or the result it superseded) as today's form (`migrations.upgrade`)."""
+    return upgrade(json.loads(Path(path).read_text()), str(path))
 
 
 SUPERSEDED = "result.superseded.json"
@@ -85,9 +92,9 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     archived = None if done.is_file() else archived_result(cfg, job_dir, planned)
     if archived is not None:  # finished on another machine
         print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
-        return json.loads(archived.read_text())
+        return read_result(archived)
     if done.is_file():
-        result = json.loads(done.read_text())
+        result = read_result(done)
         changed = result_changes(result, cfg, planned)
         if not changed:
             return _with_stage_curves(result, cfg, done)
@@ -99,7 +106,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         os.replace(done, job_dir / SUPERSEDED)
         earlier = result
     if earlier is None and (job_dir / SUPERSEDED).is_file():  # cut while running again
-        earlier = json.loads((job_dir / SUPERSEDED).read_text())
+        earlier = read_result(job_dir / SUPERSEDED)
     kept, kept_curve = still_valid(earlier, cfg, planned) if earlier else ({}, None)
     torch.set_num_threads(threads)
     budget = budget_of(cfg)
@@ -147,7 +154,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     }
     if earlier is not None:
         result["supersedes"] = SUPERSEDED  # the result it replaces, whose evaluations it keeps where they hold
-    return _write_json(done, result)
+    return _write_json(done, stamp(result))
 
 
 def _write_json(path: Path, data: dict) -> dict:
@@ -226,7 +233,7 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     path = archive / Path(job_dir).parent.name / Path(job_dir).name / RESULT
     if not path.is_file():
         return None
-    return None if result_changes(json.loads(path.read_text()), cfg, planned, archive) else path
+    return None if result_changes(read_result(path), cfg, planned, archive) else path
 
 
 def recorded_stage_seconds(runs: dict[str, Path]) -> dict[str, float]:

@@ -4,8 +4,8 @@ shares one store of finished stages.
 The identity of a stage is a hash of its composed, resolved config (budget included, as `train.iterations`),
 less what says where it is written, how it is logged or evaluated, how many threads ran it, and how often it
 writes checkpoints and how many it keeps (`IGNORED`; sweeps keep them all, for the learning curves), and less the
-keys added since at their neutral default (`UNSET_LATER_KEYS`) and less the reward terms at weight 0 (the reward
-manager drops them, so a task that switches a new term off keeps the stages trained before it); a frozen
+keys added since at their neutral default (`migrations.UNSET_LATER_KEYS`) and less the reward terms at weight 0
+(the reward manager drops them, so a task that switches a new term off keeps the stages trained before it); a frozen
 stage it builds on (`mid=@mid`) enters by that stage's identity, not by its path. Two jobs, of one sweep or of
 two experiments, whose stages compose alike use one run: `<sweep_root>/stages/<identity>/`. Any change to the
 config (a reward weight, the tracker's calibration, the budget) is another identity, so another run.
@@ -28,6 +28,7 @@ from mapush.atomic import write_yaml
 from mapush.config import compose_config, load_run_config, sim_threads, to_plain
 from mapush.logging.mcap_files import training_scalars
 from mapush.logging.metrics import CPU_TAG, THREADS_TAG
+from mapush.migrations import UNSET_LATER_KEYS, stamp, upgrade
 from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
 from mapush.rundir import checkpoint_iteration, checkpoints, find_runs
 
@@ -48,20 +49,6 @@ IGNORED = (
     "bench",
 )
 """Config keys that change where and how a stage runs, not what it learns."""
-UNSET_LATER_KEYS = {
-    "train.init_from": None,
-    "lowlevel.randomize": None,
-    "sim.robot_contacts": True,
-    "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (T-block, cylinder, OCB cuboid)
-    "level.planner.max_checks": 50000,  # the planner's work budget; plans before it ended on first solutions too
-    "lowlevel.force_cap": "axes",  # the tracker's cap on each world axis, as before the planar cap
-    "lowlevel.fall": None,  # a tracker that cannot fall, as before the load-to-fall model
-    "task.object.mass": None,  # the object's mass set apart from its parts' (the team study)
-    "task.object.mass_range": None,  # the object's mass drawn per episode (the team study)
-}
-"""Keys added after stages were trained, with the default that leaves a stage as it was: at that default a key
-stays out of the identity (and so does a parent it leaves empty), so the stages trained before it existed keep
-theirs; set, it makes another stage."""
 STAGE_REF = "@"
 """An override value `@STAGE` (e.g. `mid=@mid`) stands for that earlier stage's run dir."""
 IDENTITY_FILE = "stage.yaml"
@@ -137,7 +124,7 @@ def stands_for(sweep_root: Path, key: str) -> list[str]:
     while key and key not in found:
         found.append(key)
         record = stage_dir(sweep_root, key) / IDENTITY_FILE
-        key = OmegaConf.select(OmegaConf.load(record), "adopted_from.identity") if record.is_file() else None
+        key = (read_identity(record).get("adopted_from") or {}).get("identity") if record.is_file() else None
     return found
 
 
@@ -183,10 +170,9 @@ def cost_per_env_step(results: list[dict], roots: list[Path]) -> dict[tuple, flo
                 continue
             seen.add(key)
             record = next((r for r in (stage_dir(root, key) / IDENTITY_FILE for root in roots) if r.is_file()), None)
-            config = OmegaConf.select(OmegaConf.load(record), "config") if record else None
-            if config is None:
+            cfg = read_identity(record).get("config") if record else None
+            if cfg is None:
                 continue
-            cfg = OmegaConf.to_container(config)
             kind = shape(cfg)
             seconds[kind] = seconds.get(kind, 0.0) + float(core_s)
             steps[kind] = steps.get(kind, 0.0) + int(cfg["train"]["iterations"]) * env_steps_per_iteration(cfg)
@@ -197,7 +183,12 @@ def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:
     """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run; `origin`: where
     a run made elsewhere came from (`adopted_from`, `trained_as_run`)."""
     Path(directory).mkdir(parents=True, exist_ok=True)
-    write_yaml(Path(directory) / IDENTITY_FILE, {"identity": key, "config": cfg, **origin})
+    write_yaml(Path(directory) / IDENTITY_FILE, stamp({"identity": key, "config": cfg, **origin}))
+
+
+def read_identity(record: Path) -> dict:
+    """A stage's `stage.yaml` (`write_identity`) as today's form, plain."""
+    return upgrade(OmegaConf.to_container(OmegaConf.load(record)), str(record))
 
 
 def copy_run(run_dir: Path, target: Path) -> None:

@@ -1,11 +1,12 @@
 """Whether a job's finished `result.json` still stands for what its experiment plans now: the same stages, the
 same evaluations, the same locomotion policy walking its legged evaluations (`result_changes`, `still_valid`), and
-which of a result's evaluations a reason concerns (`concerns`)."""
+which of a result's evaluations a change concerns (`Change.concerns`)."""
 
 from __future__ import annotations
 
-import re
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from omegaconf import DictConfig, OmegaConf
 
@@ -13,6 +14,33 @@ from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.experiments import stages
 from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, eval_overrides, eval_stage, evaluated_stage
 from mapush.lowlevel import backend_of
+
+
+@dataclass(frozen=True)
+class Change:
+    """Why a finished result no longer stands for what its experiment plans now (`result_changes`): `kind`, the
+    stages whose identity changed (`stages`, in the plan's order) or the one evaluation it is about
+    (`evaluation`), and `text`, the change in words as the sweep and the tables print it."""
+
+    kind: Literal["stages", "evaluations", "evaluation", "curve"]
+    text: str
+    stages: tuple[str, ...] = ()
+    evaluation: str | None = None
+
+    def __str__(self) -> str:
+        return self.text
+
+    def concerns(self, result: dict, name: str) -> bool:
+        """Whether the change concerns the result's evaluation `name`, so that a table marks its cells: a changed
+        evaluation concerns only itself; changed stages concern the evaluations of those stages and of every stage
+        after them in the plan (trained on them), not a mid level evaluated alone whose high level alone changed;
+        any other change (the set of evaluations, the curve) the whole job."""
+        if self.kind == "evaluation":
+            return self.evaluation == name
+        order, evaluated = list(result.get("stages", {})), _evaluated_stage(result, name)
+        if self.kind != "stages" or evaluated is None:
+            return True
+        return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in self.stages)
 
 
 def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
@@ -61,15 +89,15 @@ def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], roo
     return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
 
 
-def _about_evaluation(name: str, what: str) -> str:
-    """A `result_changes` reason that concerns one evaluation only; `concerns` reads its name back."""
-    return f"evaluation {name!r} {what}"
+def _about_evaluation(name: str, what: str) -> Change:
+    """A change that concerns one evaluation only."""
+    return Change("evaluation", f"evaluation {name!r} {what}", evaluation=name)
 
 
-def _about_stages(changed: dict[str, tuple[str | None, str | None]]) -> str:
-    """A `result_changes` reason that names the stages whose identity changed (name: made -> planned), in the
-    plan's order; `concerns` reads the names back."""
-    return "its stages changed (" + ", ".join(f"{name}: {was} -> {now}" for name, (was, now) in changed.items()) + ")"
+def _about_stages(changed: dict[str, tuple[str | None, str | None]]) -> Change:
+    """A change of the stages whose identity changed (name: made -> planned), in the plan's order."""
+    text = ", ".join(f"{name}: {was} -> {now}" for name, (was, now) in changed.items())
+    return Change("stages", f"its stages changed ({text})", stages=tuple(changed))
 
 
 def _evaluated_stage(result: dict, name: str) -> str | None:
@@ -78,24 +106,10 @@ def _evaluated_stage(result: dict, name: str) -> str | None:
     return next((stage for stage, run in result.get("stages", {}).items() if Path(run) in checkpoint.parents), None)
 
 
-def concerns(reason: str, result: dict, name: str) -> bool:
-    """Whether a `result_changes` reason about `result` concerns its evaluation `name`, so that a table marks that
-    evaluation's cells: a changed evaluation concerns only itself; changed stages concern the evaluations of those
-    stages and of every stage after them in the plan (trained on them), not a mid level evaluated alone whose high
-    level alone changed; any other reason (the set of evaluations, the curve) the whole job."""
-    evaluation = re.match(r"evaluation '([^']+)' ", reason)
-    if evaluation:
-        return evaluation.group(1) == name
-    changed = re.match(r"its stages changed \((.*)\)$", reason)
-    order, evaluated = list(result.get("stages", {})), _evaluated_stage(result, name)
-    if not changed or evaluated is None:
-        return True
-    names = re.findall(r"(\w+): \S+ -> \S+", changed.group(1))
-    return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in names)
-
-
-def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> str:
-    """What makes a job's finished `result` stale against its experiment now, "" when nothing does: another stage
+def result_changes(
+    result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None
+) -> Change | None:
+    """What makes a job's finished `result` stale against its experiment now, None when nothing does: another stage
     identity (a budget, reward or tracker value changed), or other evaluations or curve than the experiment asks for.
     `root` holds the stage records (`stage.yaml`) of the result's stages: the sweep root, or the archive.
     """
@@ -107,7 +121,8 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], r
         return _about_stages({name: (made.get(name), wanted.get(name)) for name in changed})
     evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
     if sorted(result.get("evals", {})) != evals:
-        return f"its evaluations changed ({', '.join(sorted(result.get('evals', {})))} -> {', '.join(evals)})"
+        had = ", ".join(sorted(result.get("evals", {})))
+        return Change("evaluations", f"its evaluations changed ({had} -> {', '.join(evals)})")
     for name in evals:  # results made before evaluations recorded their overrides are taken as they are
         recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
         if recorded is not None and recorded != now:
@@ -117,5 +132,5 @@ def result_changes(result: dict, cfg: DictConfig, planned: list[PlannedStage], r
                 return _about_evaluation(name, "recorded no locomotion policy")
             return _about_evaluation(name, "walked its robots with another locomotion policy than now")
     if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
-        return "its learning curve was added or dropped"
-    return ""
+        return Change("curve", "its learning curve was added or dropped")
+    return None

@@ -8,7 +8,6 @@ cut ones. A job that fails writes `failed.txt` and lets the others run; the fail
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import traceback
@@ -25,7 +24,7 @@ from mapush.errors import BadInput, first_line
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
 from mapush.experiments.archive import load_results
-from mapush.experiments.pipeline import RESULT, archived_result, every_stage_override, run_job
+from mapush.experiments.pipeline import RESULT, archived_result, every_stage_override, read_result, run_job
 from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes
@@ -224,7 +223,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
             finished += 1  # finished on another machine, and archived (`mapush archive`)
             continue
         if result.is_file():
-            why = result_changes(json.loads(result.read_text()), cfg, planned)
+            why = result_changes(read_result(result), cfg, planned)
             finished += 1
             if not why:
                 continue  # finished as planned now: nothing to train or evaluate
@@ -312,7 +311,7 @@ def report(sweep_dir: Path, finished: list[Path], failed: list[Path]) -> int:
     """Print the sweep's outcome; returns the exit code (1 when a job failed)."""
     print(f"sweep {sweep_dir}: {len(finished)} jobs finished, {len(failed)} failed")
     for path in finished:
-        result = json.loads((path / RESULT).read_text())
+        result = read_result(path / RESULT)
         cells = ", ".join(
             f"{name} S.R. {100 * e['success_rate']:.1f}% C.T. {e['completion_time']:.3f}"
             for name, e in result["evals"].items()

@@ -23,8 +23,8 @@ from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 
 from mapush.errors import BadInput
+from mapush.logging.foxglove_scene import OBJECT, robot_frame
 from mapush.logging.mcap_files import stream_records
-from mapush.logging.scene import OBJECT, robot_frame
 from mapush.planning import paths
 from mapush.planning.geometry import corners, polygon_gap, transform
 from mapush.sim.shapes import object_hull

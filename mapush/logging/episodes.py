@@ -3,7 +3,7 @@
 Topics (one message per env step unless said otherwise):
 
 - `/scene` (`foxglove.SceneUpdate`): arena, object, robots with their heading, subgoal, and for the high level the
-  target, obstacles and reference path (see `mapush.logging.scene`); for the low level, the Go1's own geoms and
+  target, obstacles and reference path (see `mapush.logging.foxglove_scene`); for the low level, the Go1's own geoms and
   its commanded and actual velocity (`mapush.logging.go1_scene`);
 - `/tf` (`foxglove.FrameTransforms`): world -> object, world -> robot<i>;
 - `/commands` (`mapush.RobotCommands`, JSON): per-robot `vx`, `vy`, `yaw_rate` arrays, index = robot;
@@ -35,7 +35,7 @@ from foxglove.messages import Log, LogLevel
 import foxglove
 from foxglove import Channel, Context, Schema
 from mapush.atomic import temp_path
-from mapush.logging.scene import timestamp
+from mapush.logging.foxglove_scene import timestamp
 
 FULL_BYTES = 64 * 1024
 """Free bytes under which a failed write is taken for a full disk."""

@@ -25,7 +25,7 @@ from foxglove.messages import (
     Vector3,
 )
 
-from mapush.logging.scene import WORLD, robot_frame, scene_entity, timestamp
+from mapush.logging.foxglove_scene import WORLD, robot_frame, scene_entity, timestamp
 from mapush.sim.geoms import drawn_geom_ids
 
 COMMAND = Color(r=0.2, g=0.85, b=0.35, a=1.0)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import foxglove.layouts as fl
 
-from mapush.logging.scene import WORLD
+from mapush.logging.foxglove_scene import WORLD
 
 COMMAND_FIELDS = ("vx", "vy", "yaw_rate")
 

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import yaml
 
-from mapush.experiments.staleness import concerns
 from mapush.report import plots
 from mapush.report.formats import Cell
 
@@ -26,8 +25,8 @@ def collect(results: list[dict], metric: str, scale: float, **match) -> Cell:
         if eval_name in r["evals"]:
             cell.values.append(scale * r["evals"][eval_name][metric])
             cell.sources.append(r["job_dir"])
-            reason = r.get("made_otherwise") or ""
-            cell.otherwise += bool(reason) and concerns(reason, r, eval_name)
+            change = r.get("made_otherwise")
+            cell.otherwise += change is not None and change.concerns(r, eval_name)
     return cell
 
 

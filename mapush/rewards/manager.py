@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from mapush.terms import bind_term
+from mapush.config_terms import bind_term
 
 
 class RewardManager:

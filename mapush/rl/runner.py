@@ -12,7 +12,6 @@ from rsl_rl.runners import OnPolicyRunner
 
 from mapush.atomic import replacing
 from mapush.config import sim_threads
-from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
 from mapush.logging.metrics import IterationLogger, McapLogWriter
 from mapush.rl.export import export_onnx, export_torchscript
@@ -107,23 +106,24 @@ def obs_width(runner: OnPolicyRunner) -> int:
     return int(runner.env.get_observations()["policy"].shape[-1])
 
 
-def load_checkpoint(runner: OnPolicyRunner, path: Path, obs_dim: int, what: str, weights: bool = False) -> int:
+def load_checkpoint(
+    runner: OnPolicyRunner, path: Path, obs_dim: int, what: str, weights: bool = False, hint=None
+) -> int:
     """Load `path` into `runner` after checking it fits; returns the checkpoint's iteration.
 
     `weights`: only the networks (actor, and critic where saved), to start a new run from them (`train.init_from`);
     the optimizer and the iteration count start fresh. Raises BadInput for a missing file or a checkpoint made for
-    another observation width (agent count).
+    another observation width (agent count), with `hint(width)` (the level's `width_hint`) where given.
     """
     if not Path(path).is_file():
         raise BadInput(f"checkpoint {str(path)!r} does not exist; valid: a model_<iteration>.pt of a run dir")
     data = read_checkpoint(path)  # weights only: anything else could run code when unpickled
     trained_dim, _ = actor_shape(data)
     if trained_dim != obs_dim:
-        level = runner.env.cfg["level"]["name"]
-        hint = f" (task.num_agents={agents_for_local_dim(trained_dim)})" if level == "mid" else ""
+        fits = f" ({hint(trained_dim)})" if hint else ""
         raise BadInput(
             f"checkpoint {str(path)!r} expects a {trained_dim}-d observation but {what} gives "
-            f"{obs_dim}-d; valid: the task and agent count it was trained with{hint}"
+            f"{obs_dim}-d; valid: the task and agent count it was trained with{fits}"
         )
     # A shipped policy's checkpoint keeps the actor alone (`mapush ship`): load what is there.
     parts = {"actor": True, "iteration": not weights, "rnd": "rnd_state_dict" in data and not weights}

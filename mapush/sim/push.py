@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from mapush.sim.core import BatchSim
+from mapush.sim.batch import BatchSim
 from mapush.sim.scene import OBJECT_BODY, OBJECT_JOINT, OBSTACLE_BODY, SUBGOAL_BODY, build_scene, robot_prefixes
 
 

@@ -17,8 +17,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from mapush.viz.env_scene import EnvView
 from mapush.viz.preflight import check_video_config, require_offscreen_gl
-from mapush.viz.scene import EnvView
 
 EVAL_VIDEO = "eval_video.mp4"
 TRAIN_VIDEO = "train_video_{:05d}.mp4"

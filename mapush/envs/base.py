@@ -18,8 +18,8 @@ import math
 import numpy as np
 import torch
 
+from mapush.config_terms import Term, bind_terms
 from mapush.rewards.manager import RewardManager
-from mapush.terms import Term, bind_terms
 
 RECENT_EPISODES = 500
 """Episodes in the rolling success rate that is logged every step (`Metrics/recent_success_rate`)."""

@@ -12,11 +12,11 @@ from omegaconf import DictConfig
 from mapush.atomic import remove_leftovers
 from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.errors import BadInput
-from mapush.levels import build, checked, scene_layout
+from mapush.levels import build, checked, load_into, scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
-from mapush.rl.runner import POLICY_FILE, export_policy, learn, load_checkpoint, obs_width
+from mapush.rl.runner import POLICY_FILE, export_policy, learn
 from mapush.rundir import checkpoint_iteration, checkpoints
 from mapush.schema import check_config
 from mapush.viz.video import attach_training_video
@@ -87,7 +87,7 @@ def export_finished(run_dir: Path) -> Path:
     """Export the policy of a run whose last checkpoint holds every iteration (cut while exporting)."""
     cfg = to_plain(load_run_config(run_dir))
     _env, runner = build(cfg, None, int(cfg["train"]["iterations"]))
-    load_checkpoint(runner, checkpoints(run_dir)[-1], obs_width(runner), "the run's config")
+    load_into(runner, cfg, checkpoints(run_dir)[-1], "the run's config")
     export_policy(runner, run_dir)
     return Path(run_dir)
 
@@ -102,10 +102,10 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
     env, runner = build(cfg, run_dir, total)
     done = 0
     if checkpoint is not None:
-        done = load_checkpoint(runner, checkpoint, obs_width(runner), "the run's config") + 1
+        done = load_into(runner, cfg, checkpoint, "the run's config") + 1
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
     elif cfg["train"]["init_from"]:  # a new run that starts from another run's networks
-        load_checkpoint(runner, Path(cfg["train"]["init_from"]), obs_width(runner), "the config", weights=True)
+        load_into(runner, cfg, Path(cfg["train"]["init_from"]), "the config", weights=True)
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
     if interval > 0:

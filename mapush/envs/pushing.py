@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from mapush.envs.core import EnvCore
+from mapush.envs.base import EnvCore
 from mapush.envs.resets import check_agent_count
 from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS, backend_name, backend_of

@@ -3,9 +3,9 @@ user geoms, for MuJoCo's offscreen renderer (`mapush.viz.video`) and its native 
 
 The model's own geoms show the arena, the object, the robots (tinted in the episode files' colours), the subgoal
 marker and the obstacle blocks (mocap bodies, so they move with the copied state). The env's `scene_frame()` row
-(what the MCAP episode files draw, `mapush.logging.scene`) adds the success disc round the subgoal and, where the
-level has them, the target, the reference path, the robots' own goals (H+L) and, at the low level, the Go1's
-commanded (green) and actual (white) planar velocity.
+(what the MCAP episode files draw, `mapush.logging.foxglove_scene`) adds the success disc round the subgoal and,
+where the level has them, the target, the reference path, the robots' own goals (H+L) and, at the low level, the
+Go1's commanded (green) and actual (white) planar velocity.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import itertools
 import mujoco
 import numpy as np
 
-from mapush.logging.scene import GOAL_RADIUS, MARKER_HEIGHT, RGBA
+from mapush.logging.foxglove_scene import GOAL_RADIUS, MARKER_HEIGHT, RGBA
 from mapush.sim.scene import OBJECT_BODY, ROBOT_PREFIX
 
 PATH_WIDTH = 0.04  # m; radius of the capsules that draw the reference path
@@ -28,7 +28,7 @@ CLIP_M = (0.05, 200.0)  # m; near and far clipping planes. MuJoCo scales its own
 
 
 def rgba(name: str, index: int = 0) -> np.ndarray:
-    """The episode files' colour `name` (`mapush.logging.scene.RGBA`; `robots` by index) as MuJoCo's rgba."""
+    """The episode files' colour `name` (`mapush.logging.foxglove_scene.RGBA`; `robots` by index) as MuJoCo's rgba."""
     color = RGBA[name]
     if name == "robots":
         color = color[index % len(color)]

@@ -1,0 +1,81 @@
+"""Old files, read as today's: the one place that knows what mapush's files looked like before.
+
+The files mapush writes for later reading carry `format_version` (`FORMAT_VERSION`): a run's `meta.json`, a sweep
+job's `result.json` and a stage's `stage.yaml`. A file without it was written before the key existed (version 0).
+Readers pass what they read through `upgrade`, which brings it to today's version one step at a time (`STEPS`), so
+that no other module tests for an old form.
+
+Two kinds of change live in the config instead, as keys whose absence has a meaning:
+- a key added after runs were made, with the value that leaves those runs as they were (`UNSET_LATER_KEYS`): at
+  that value a stage's identity leaves the key out, so the stages trained before it keep theirs;
+- a key whose default changed after it was added (`ABSENT_MEANT`): a run saved without it ran with the old value,
+  which `load_run_config` gives it (`absent_meant`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from omegaconf import DictConfig, OmegaConf
+
+from mapush.errors import BadInput
+
+FORMAT_VERSION = 1
+"""Today's version of meta.json, result.json and stage.yaml."""
+
+UNSET_LATER_KEYS = {
+    "train.init_from": None,
+    "lowlevel.randomize": None,
+    "sim.robot_contacts": True,
+    "task.reward_weights.robot_jam": 0.0,  # a task that switches the term off (T-block, cylinder, OCB cuboid)
+    "level.planner.max_checks": 50000,  # the planner's work budget; plans before it ended on first solutions too
+    "lowlevel.force_cap": "axes",  # the tracker's cap on each world axis, as before the planar cap
+    "lowlevel.fall": None,  # a tracker that cannot fall, as before the load-to-fall model
+    "task.object.mass": None,  # the object's mass set apart from its parts' (the team study)
+    "task.object.mass_range": None,  # the object's mass drawn per episode (the team study)
+}
+"""Keys added after stages were trained, with the value that leaves a stage as it was: at that value a key stays
+out of a stage's identity (and so does a parent it leaves empty), so the stages trained before it existed keep
+theirs; set otherwise, it makes another stage (`mapush.experiments.stages.identity`)."""
+
+ABSENT_MEANT = {"level.path.plan_in_training": False}
+"""Settings whose default changed after they were added: a run saved before one existed ran as this value."""
+
+
+def _from_version_0(data: dict) -> dict:
+    """Version 0 files hold everything version 1 files do; version 1 only names its version."""
+    return data
+
+
+STEPS: dict[int, Callable[[dict], dict]] = {0: _from_version_0}
+"""`STEPS[v]` turns a version-v file's content into version v + 1's."""
+
+
+def stamp(data: dict) -> dict:
+    """`data` as written today: with `format_version`."""
+    return {**data, "format_version": FORMAT_VERSION}
+
+
+def upgrade(data: dict, what: str) -> dict:
+    """A file's content (`what` names it in a message) brought to today's `FORMAT_VERSION`; BadInput for a file a
+    newer mapush wrote."""
+    version = int(data.get("format_version", 0))
+    if version > FORMAT_VERSION:
+        raise BadInput(
+            f"{what} has format_version {version}, newer than this mapush reads ({FORMAT_VERSION}); valid: files of "
+            f"format_version {FORMAT_VERSION} or less (a newer mapush reads this one)"
+        )
+    while version < FORMAT_VERSION:
+        data = STEPS[version](data)
+        version += 1
+    return stamp(data)
+
+
+def absent_meant(saved: DictConfig, cfg: DictConfig) -> None:
+    """Set in `cfg` (a run's config as loaded) the `ABSENT_MEANT` keys that the run's `saved` config lacks, where it
+    has their parent: the run ran with the old default."""
+    for key, value in ABSENT_MEANT.items():
+        parent, _, leaf = key.rpartition(".")
+        node = OmegaConf.select(saved, parent)
+        if node is not None and leaf not in node:
+            OmegaConf.update(cfg, key, value)

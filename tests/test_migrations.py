@@ -1,0 +1,47 @@
+"""Old files read as today's (mapush/migrations.py): every file mapush writes for later names its format_version,
+a file from before the key reads as version 0, and one from a newer mapush is one line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+
+from mapush.errors import BadInput
+from mapush.experiments import pipeline, stages
+from mapush.migrations import FORMAT_VERSION, upgrade
+
+
+def test_a_file_from_before_the_key_is_upgraded_with_its_content_kept():
+    old = {"evals": {"main": {"success_rate": 0.5}}, "stages": {"mid": "runs/x"}}
+    assert upgrade(old, "result.json") == {**old, "format_version": FORMAT_VERSION}
+
+
+def test_a_file_of_a_newer_mapush_is_one_line_naming_its_version():
+    with pytest.raises(BadInput, match=rf"format_version {FORMAT_VERSION + 1}, newer") as err:
+        upgrade({"format_version": FORMAT_VERSION + 1}, "runs/x/result.json")
+    assert "\n" not in str(err.value) and "runs/x/result.json" in str(err.value)
+
+
+def test_stage_records_are_written_with_their_version_and_old_ones_read(tmp_path):
+    stages.write_identity(tmp_path / "new", {"seed": 1}, "abc")
+    written = OmegaConf.to_container(OmegaConf.load(tmp_path / "new" / stages.IDENTITY_FILE))
+    assert written["format_version"] == FORMAT_VERSION
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old" / stages.IDENTITY_FILE).write_text("identity: abc\nconfig: {seed: 1}\n")
+    assert stages.read_identity(tmp_path / "old" / stages.IDENTITY_FILE) == written
+
+
+def test_a_result_from_before_the_key_reads_as_today(tmp_path):
+    path = tmp_path / pipeline.RESULT
+    path.write_text(json.dumps({"evals": {}, "stages": {}}))
+    assert pipeline.read_result(path)["format_version"] == FORMAT_VERSION
+
+
+def test_the_committed_results_all_read():
+    """Every result.json kept in git (results/jobs/) reads with this mapush."""
+    found = list((Path(__file__).resolve().parents[1] / "results" / "jobs").glob("**/" + pipeline.RESULT))
+    assert found
+    assert all(pipeline.read_result(p)["format_version"] == FORMAT_VERSION for p in found)
