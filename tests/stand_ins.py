@@ -1,6 +1,7 @@
 """Stand-ins for tests: envs for the pure term functions (only the attributes a term reads, state fields under
 `env.state` as the real envs keep them: `PushState`, `LocomotionState`), stage runs with hand-made iteration
-times for the cost and archive tests, and which bodies touch in a MuJoCo state."""
+times for the cost and archive tests, which bodies touch in a MuJoCo state, and the check every bad-input test makes
+of the command line's answer (`assert_bad_input`)."""
 
 from __future__ import annotations
 
@@ -53,3 +54,15 @@ def touching_pairs(model, data) -> set[tuple[str, str]]:
     each body named by its robot prefix (`robot0`, ...) or its own name (`object`, `world`), sorted."""
     owner = [model.body(model.geom_bodyid[g]).name.split("/")[0] for g in range(model.ngeom)]
     return {tuple(sorted((owner[c.geom1], owner[c.geom2]))) for c in data.contact[: data.ncon]}
+
+
+def assert_bad_input(proc, *fragments: str) -> str:
+    """Exit 2 with exactly one `mapush: error:` line on stderr that contains every fragment; returns the line."""
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("mapush: error: ")
+    for fragment in fragments:
+        assert fragment in lines[0]
+    return lines[0]

@@ -40,7 +40,8 @@ from mapush.logging.foxglove_scene import timestamp
 FULL_BYTES = 64 * 1024
 """Free bytes under which a failed write is taken for a full disk."""
 
-CHUNK_BYTES = 256 * 1024  # small chunks: what a kill leaves is recoverable up to the last flush (tests/test_logs.py)
+CHUNK_BYTES = 256 * 1024
+"""Small chunks: what a kill leaves is recoverable up to the last flush (tests/unit/logging/test_logs.py)."""
 EPISODE_GAP_NS = 1_000_000_000
 NUMBERS = {"type": "array", "items": {"type": "number"}}
 

@@ -21,6 +21,7 @@ from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2
 from mcap.reader import make_reader
+from paths import REPO
 
 from mapush.envs.mid import MidPushEnv
 from mapush.levels import scene_layout
@@ -31,7 +32,7 @@ from mapush.logging.mcap_files import summary
 from mapush.logging.metrics import McapLogWriter
 from mapush.rewards.manager import RewardManager
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = REPO
 FOXGLOVE_TYPES = {"foxglove.SceneUpdate": SceneUpdate, "foxglove.FrameTransforms": FrameTransforms, "foxglove.Log": Log}
 
 

@@ -10,7 +10,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from test_cli_bad_input import assert_bad_input
+from stand_ins import assert_bad_input
 
 
 @contextlib.contextmanager

@@ -8,8 +8,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = REPO
 THIS = Path(__file__).resolve().relative_to(ROOT).as_posix()
 
 README_MAX_LINES = 250

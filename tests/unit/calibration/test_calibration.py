@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import json
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 from omegaconf import OmegaConf
+from paths import REPO
 
 from mapush.calibration import capacity
 from mapush.calibration.lags import LAG_GRID, STEADY_MIN, fit_lag, steady_fractions, step_commands
@@ -142,9 +142,7 @@ def test_the_contact_fall_midpoint_is_the_lowest_at_which_the_tracker_falls_push
 
 def test_the_shipped_tracker_falls_pushing_no_more_often_than_the_go1_it_was_calibrated_on():
     """The committed calibration's Go1 push sweep against the tracker of conf/lowlevel/tracker.yaml, same starts."""
-    measured = json.loads(
-        (Path(__file__).resolve().parents[1] / "results" / "calibration" / "calibration.json").read_text()
-    )
+    measured = json.loads((REPO / "results" / "calibration" / "calibration.json").read_text())
     sweep = capacity.push_sweep(["lowlevel=tracker"], measured["repeats"], measured["seed"])
     assert sweep["fell"].mean() <= np.mean(measured["push"]["fell"])
     speeds = np.array(measured["push"]["object_speed"])

@@ -4,13 +4,13 @@ on hand-placed states."""
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 import torch
+from paths import REPO
 
-SPEC = importlib.util.spec_from_file_location("push_progress", Path(__file__).parents[1] / "tools" / "push_progress.py")
+SPEC = importlib.util.spec_from_file_location("push_progress", REPO / "tools" / "push_progress.py")
 push_progress = importlib.util.module_from_spec(SPEC)
 SPEC.loader.exec_module(push_progress)
 

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 from omegaconf import OmegaConf
-from test_cli_bad_input import assert_bad_input
+from stand_ins import assert_bad_input
 
 from mapush.config import CONF_DIR
 

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import graphlib
-from pathlib import Path
 
 import grimp
 import pytest
 from importlinter.cli import lint_imports
+from paths import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 
 
 def test_the_layers_contract_is_kept(capsys):

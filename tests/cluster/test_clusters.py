@@ -17,13 +17,14 @@ import time
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
 from mapush.experiments.pipeline import RESULT
 
-SLURM_LOCAL = Path(__file__).resolve().parents[1] / "tools" / "slurm_local.sh"
+SLURM_LOCAL = REPO / "tools" / "slurm_local.sh"
 SLURM_CONF = Path("/etc/slurm/slurm.conf")
 SMOKE_SWEEP = ["experiment=ocb_ablation", "budget=smoke", "debug=smoke", "seed=0", "method=ours,ours_no_ocb"]
-"""The 2-job sweep of tests/test_experiments.py's launcher test: Ours and Ours w/o OCB, one seed."""
+"""The 2-job sweep of tests/unit/experiments/test_experiments.py's launcher test: Ours and Ours w/o OCB, one seed."""
 
 
 def _sweep(cli, tmp_path: Path, *args: str):

@@ -4,18 +4,7 @@ no traceback, and nothing written or overwritten."""
 from __future__ import annotations
 
 import pytest
-
-
-def assert_bad_input(proc, *fragments: str) -> str:
-    """Exit 2 with exactly one `mapush: error:` line on stderr that contains every fragment; returns the line."""
-    assert proc.returncode == 2, proc.stderr
-    assert "Traceback" not in proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1, proc.stderr
-    assert lines[0].startswith("mapush: error: ")
-    for fragment in fragments:
-        assert fragment in lines[0]
-    return lines[0]
+from stand_ins import assert_bad_input
 
 
 @pytest.fixture

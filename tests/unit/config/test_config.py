@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
+from paths import REPO
 
 from mapush.config import apply_overrides, compose_config, group_options, to_plain
 from mapush.errors import BadInput
@@ -150,7 +149,7 @@ def test_a_term_a_run_saved_stays_as_the_run_saved_it_not_merged_with_todays():
     a footprint tolerance. Its own term, params and all, is what it loads with."""
     from mapush.config import load_run_config
 
-    cfg = load_run_config(Path(__file__).parents[1] / "mapush" / "policies" / "cuboid" / "mid")
+    cfg = load_run_config(REPO / "mapush" / "policies" / "cuboid" / "mid")
     term = cfg.level.exceptions.robot_collision
     assert term.func == "mapush.envs.terminations:robot_collision"
     assert dict(term.params) == {"distance_m": 0.25}

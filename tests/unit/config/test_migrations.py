@@ -4,10 +4,10 @@ a file from before the key reads as version 0, and one from a newer mapush is on
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 from omegaconf import OmegaConf
+from paths import REPO
 
 from mapush.errors import BadInput
 from mapush.experiments import pipeline, stages
@@ -42,6 +42,6 @@ def test_a_result_from_before_the_key_reads_as_today(tmp_path):
 
 def test_the_committed_results_all_read():
     """Every result.json kept in git (results/jobs/) reads with this mapush."""
-    found = list((Path(__file__).resolve().parents[1] / "results" / "jobs").glob("**/" + pipeline.RESULT))
+    found = list((REPO / "results" / "jobs").glob("**/" + pipeline.RESULT))
     assert found
     assert all(pipeline.read_result(p)["format_version"] == FORMAT_VERSION for p in found)

@@ -7,8 +7,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from paths import REPO
 
-SETUP = Path(__file__).resolve().parents[1] / "tools" / "setup.sh"
+SETUP = REPO / "tools" / "setup.sh"
 
 
 def _build(tmp_path: Path, nvidia_smi: str | None, torch: str | None = None) -> subprocess.CompletedProcess:

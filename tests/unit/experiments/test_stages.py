@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 from omegaconf import OmegaConf, open_dict
+from paths import REPO
 
 from mapush.config import compose_config, load_run_config
 from mapush.errors import BadInput
@@ -23,10 +24,10 @@ from mapush.migrations import UNSET_LATER_KEYS
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
-SPEC = importlib.util.spec_from_file_location("adopt_runs", Path(__file__).parents[1] / "tools" / "adopt_runs.py")
+SPEC = importlib.util.spec_from_file_location("adopt_runs", REPO / "tools" / "adopt_runs.py")
 adopt_runs = importlib.util.module_from_spec(SPEC)
 SPEC.loader.exec_module(adopt_runs)
-SHIPPED_GO1 = Path(__file__).parents[1] / "mapush" / "lowlevel" / "pretrained" / "go1" / "policy.pt"
+SHIPPED_GO1 = REPO / "mapush" / "lowlevel" / "pretrained" / "go1" / "policy.pt"
 SHIPPED_GO1_SHA256 = hashlib.sha256(SHIPPED_GO1.read_bytes()).hexdigest()[:16]
 """How a legged evaluation names the policy that walked its robots (`lowlevel_policy.sha256` in result.json)."""
 
