@@ -67,6 +67,24 @@ class Cell:
         }
 
 
+@dataclass(frozen=True)
+class Finding:
+    """One thing a table says about its cells, as data: `text` (the statement with its numbers, as the Markdown
+    lists it), whether it `holds` (True or False for a claim, the paper's or a budget rule's; None for a reading that
+    claims nothing) and the `numbers` it rests on, by name (the sidecar JSON keeps all three)."""
+
+    text: str
+    holds: bool | None = None
+    numbers: dict[str, float] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        return self.text
+
+    def record(self) -> dict:
+        """The finding in the sidecar JSON."""
+        return {"text": self.text, "holds": self.holds, "numbers": self.numbers}
+
+
 @dataclass
 class Table:
     """A grid of cells with row and column labels; `name` gives the file names."""
@@ -78,7 +96,7 @@ class Table:
     rows: list[tuple[list[str], list[Cell]]]  # (row labels, cells)
     missing: list[str] = field(default_factory=list)
     note: str = ""
-    findings: list[str] = field(default_factory=list)  # what holds here of the paper's findings, budget checks
+    findings: list[Finding] = field(default_factory=list)  # what holds here of the paper's findings, budget checks
     curves: dict = field(default_factory=dict)  # {panel: {label: results}} for the learning-curve plot
     cost: dict = field(default_factory=dict)  # what the runs behind it cost (`mapush.report.cost`)
     otherwise: list[str] = field(default_factory=list)  # jobs made otherwise than planned now, and how
@@ -148,4 +166,5 @@ def sidecar(table: Table) -> dict:
         for column, cell in zip(table.columns, cells, strict=True)
     ]
     return {"table": table.name, "title": table.title, "cells": cells, "missing": table.missing,
-            "findings": table.findings, "cost": table.cost, "made_otherwise": table.otherwise}  # fmt: skip
+            "findings": [f.record() for f in table.findings], "cost": table.cost,
+            "made_otherwise": table.otherwise}  # fmt: skip

@@ -9,7 +9,7 @@ from omegaconf import OmegaConf
 from mapush.config import group_file
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching
-from mapush.report.formats import Table
+from mapush.report.formats import Finding, Table
 from mapush.report.physics import team_needed
 
 EXTRA_COLUMNS = {
@@ -90,7 +90,7 @@ def success_time(success_rate: float, completion_time: float) -> float | None:
     return (completion_time - (1.0 - success_rate)) / success_rate
 
 
-def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
+def _main_findings(mine: list[dict], paper: dict, task: str) -> list[Finding]:
     """What holds on one object: Ours against the paper, the baselines, path following and the legged robots."""
     sr = {m: collect(mine, "success_rate", 100.0, method=m, task=task, eval="main").values for m in paper["methods"]}
     ours = sr["ours"]
@@ -99,40 +99,47 @@ def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
     mean, label = float(np.mean(ours)), paper["task_labels"][task]
     ct = float(np.mean(collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").values))
     paper_sr, paper_ct = paper["success_rate"][task]["ours"][0], paper["completion_time"][task]["ours"][0]
-    lines = [
+    text = (
         f"{label}: Ours S.R. {mean:.1f} % vs the paper's {paper_sr:.1f} % ("
         + ("holds: at or above" if mean >= paper_sr else "does not hold: below")
         + f"), C.T. {ct:.2f} vs {paper_ct:.2f} ("
         + ("holds: at or below" if ct <= paper_ct else "does not hold: above")
         + ")"
-    ]
+    )
+    numbers = {"ours_sr": mean, "paper_sr": paper_sr, "ours_ct": ct, "paper_ct": paper_ct}
+    lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers)]
     timeouts = {r["evals"].get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
     mine_t, paper_t = success_time(mean / 100, ct), success_time(paper_sr / 100, paper_ct)
     if len(timeouts) == 1 and None not in timeouts and mine_t is not None and paper_t is not None:
         (timeout,) = timeouts
-        lines.append(
+        text = (
             f"{label}: Ours' successes take {mine_t * timeout:.0f} s on average, the paper's {paper_t * timeout:.0f} s "
             f"(from S.R. and C.T., a failure counting as the {timeout:.0f} s timeout)"
         )
+        lines.append(Finding(text, numbers={"ours_success_s": mine_t * timeout, "paper_success_s": paper_t * timeout}))
     beaten = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) >= mean]
     below = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) < mean]
     if beaten or below:
-        lines.append(
+        text = (
             f"{label}: baselines below Ours: {', '.join(below) or 'none'}; at or above: {', '.join(beaten) or 'none'}"
         )
+        numbers = {paper["labels"][m]: float(np.mean(v)) for m, v in sr.items() if v}
+        lines.append(Finding(text, not beaten, numbers))  # the paper's: Ours above every baseline
     if sr.get("sa"):
         sa = float(np.mean(sr["sa"]))
         verdict = "below" if sa < mean else "at or above"
-        lines.append(f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {team_needed(task)}")
+        text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {team_needed(task)}"
+        lines.append(Finding(text, sa < mean, {"sa_sr": sa, "ours_sr": mean}))
     scripted = collect(mine, "success_rate", 100.0, method="hl", task=task, eval="path_only").values
     for method in ("hl", "hl_ft"):
         if scripted and sr.get(method):
             learned, bar = float(np.mean(sr[method])), float(np.mean(scripted))
             verdict = "at or above" if learned >= bar else "below"
-            lines.append(
+            text = (
                 f"{label}: {paper['labels'][method]} {learned:.1f} % is {verdict} the hand-written pusher's "
                 f"{bar:.1f} % in its action space (H+L, path only)"
             )
+            lines.append(Finding(text, learned >= bar, {"learned_sr": learned, "pusher_sr": bar}))
     for eval_name, what in (("path_only", "path following"), ("go1", "legged Go1s")):
         other = collect(mine, "success_rate", 100.0, method="ours", task=task, eval=eval_name).values
         if not other:
@@ -140,16 +147,17 @@ def _main_findings(mine: list[dict], paper: dict, task: str) -> list[str]:
         gap = mean - float(np.mean(other))
         if eval_name == "path_only":
             verdict = "adds to" if gap > 0 else "does not beat"
-            lines.append(f"{label}: the learned high level {verdict} path following ({gap:+.1f} points of S.R.)")
+            text = f"{label}: the learned high level {verdict} path following ({gap:+.1f} points of S.R.)"
+            lines.append(Finding(text, gap > 0, {"gap_points": gap}))
         else:
             verdict = "within" if gap <= LEGGED_GAP else "not within"
             line = f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points"
-            lines.append(line + _ended_by(mine, task, eval_name))
+            lines.append(Finding(line + _ended_by(mine, task, eval_name), gap <= LEGGED_GAP, {"gap_points": gap}))
     lines += _legged_baseline(mine, paper, task)
     return lines
 
 
-def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[str]:
+def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[Finding]:
     """The paper's comparison on legs: each baseline evaluated on Go1s (`go1`) against Ours on Go1s."""
     ours = collect(mine, "success_rate", 100.0, method="ours", task=task, eval="go1").values
     if not ours:
@@ -160,10 +168,11 @@ def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[str]:
         if legged:
             mean = float(np.mean(legged))
             verdict = "below" if mean < ours_mean else "at or above"
-            lines.append(
+            text = (
                 f"{paper['task_labels'][task]}: on legged Go1s {paper['labels'][method]} reaches {mean:.1f} % of "
                 f"S.R., {verdict} Ours' {ours_mean:.1f} %"
             )
+            lines.append(Finding(text, mean < ours_mean, {"baseline_sr": mean, "ours_sr": ours_mean}))
     return lines
 
 

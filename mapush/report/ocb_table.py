@@ -6,7 +6,7 @@ import numpy as np
 
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching, reach_cell
-from mapush.report.formats import Table
+from mapush.report.formats import Finding, Table
 
 
 def ocb_table(results: list[dict], variant: str) -> Table:
@@ -51,7 +51,7 @@ def ocb_table(results: list[dict], variant: str) -> Table:
     )
 
 
-def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, list[dict]]) -> list[str]:
+def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, list[dict]]) -> list[Finding]:
     """The paper's OCB finding (success at each timeout, with against without) checked on our cells, and whether
     each arm's budget has flattened."""
     findings = []
@@ -68,13 +68,16 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
             gain = float(sign * (np.mean(ours.values) - np.mean(other.values))) + 0.0  # no -0.0
             spread = float(np.hypot(np.std(ours.values), np.std(other.values)))
             p_ours, p_other = (paper[metric][name][m][0] for m in paper["methods"])
-            verdict = "holds" if gain > spread else ("does not hold" if gain <= 0 else "is within the seeds' spread")
-            findings.append(
+            holds = True if gain > spread else (False if gain <= 0 else None)  # None: within the seeds' spread
+            verdict = {True: "holds", False: "does not hold", None: "is within the seeds' spread"}[holds]
+            text = (
                 f"{paper['eval_labels'][name]}: the paper's OCB {what} ({p_ours:g} vs {p_other:g}) {verdict} here: "
                 f"{gain:+.1f} {unit} (std over seeds {spread:.1f})"
             )
+            findings.append(Finding(text, holds, {"gain": gain, "spread": spread, "paper_with": p_ours,
+                                                  "paper_without": p_other}))  # fmt: skip
     if len(columns) > 2 * len(paper["evals"]):  # the env-steps to the curve's success rate, from the curves
         reach = "; ".join(f"{labels[0]} {cells[-1].text()}" for labels, cells in rows)
-        findings.append(f"{columns[-1]} (the paper measured none): {reach}")
+        findings.append(Finding(f"{columns[-1]} (the paper measured none): {reach}"))
     findings += filter(None, (plots.budget_verdict(label, results) for label, results in arms.items()))
     return findings

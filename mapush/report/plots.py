@@ -5,12 +5,14 @@ flattened."""
 
 from __future__ import annotations
 
+import dataclasses
 import textwrap
 from pathlib import Path
 
 import numpy as np
 
 from mapush.eval.curves import first_reaching, tail_gain
+from mapush.report.formats import Finding
 
 
 def curve_of(result: dict, stage: str | None = None) -> dict | None:
@@ -53,23 +55,25 @@ def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
     return values, sources, unreached
 
 
-def budget_verdict(label: str, results: list[dict], stage: str | None = None) -> str | None:
+def budget_verdict(label: str, results: list[dict], stage: str | None = None) -> Finding | None:
     """Whether the budget of `results` (of their evaluated stage, or of `stage`) has flattened by their
     experiment's rule, or whether they did not learn at all (0 % at every checkpoint: a flat curve at 0 is no
     budget that has done its work) (the success gained over the last `tail` of the env-steps, mean over seeds, below
     `max_gain`), and where the mean curve peaked when that tail lost `max_gain` or more (a budget past the peak is
-    no better than a shorter one); None without curves."""
+    no better than a shorter one); None without curves. It holds when the budget has flattened (and learned)."""
     curves = [c for c in (curve_of(r, stage) for r in results) if c and c["points"]]
     if not curves:
         return None
     rule = curves[0]["rule"]
     if all(point["success_rate"] == 0 for c in curves for point in c["points"]):
         checkpoints = sum(len(c["points"]) for c in curves)
-        return f"{label}: did not learn: 0 % success at every one of {checkpoints} evaluated checkpoints"
+        text = f"{label}: did not learn: 0 % success at every one of {checkpoints} evaluated checkpoints"
+        return Finding(text, False, {"checkpoints": checkpoints})
     gains = [g for g in (tail_gain(c["points"], float(rule["tail"])) for c in curves) if g is not None]
     if not gains:
-        return f"{label}: too few checkpoints to judge the budget"
+        return Finding(f"{label}: too few checkpoints to judge the budget")
     mean, std, limit = 100 * np.mean(gains), 100 * np.std(gains), 100 * float(rule["max_gain"])
+    numbers = {"tail_gain_points": float(mean), "tail_gain_std": float(std), "limit_points": limit}
     if mean >= limit:
         verdict = "NOT flattened: still learning"
     elif mean > -limit:
@@ -82,13 +86,14 @@ def budget_verdict(label: str, results: list[dict], stage: str | None = None) ->
             f"after {x[peak] / 1e6:.1f}M env-steps"
         )
     seeds = f"{len(gains)} seed" + ("s" if len(gains) != 1 else "")
-    return (
+    text = (
         f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
         f"points over {seeds} (rule: < {limit:.0f}): {verdict}"
     )
+    return Finding(text, bool(mean < limit), numbers)
 
 
-def stage_verdicts(label: str, results: list[dict], stages: list[str]) -> list[str]:
+def stage_verdicts(label: str, results: list[dict], stages: list[str]) -> list[Finding]:
     """`budget_verdict` of each of `stages` that `results` trained before their evaluated stage (the last they
     name), by the stage's own curves, each saying how many of those jobs lack one (their runs were not here)."""
     verdicts = []
@@ -97,10 +102,11 @@ def stage_verdicts(label: str, results: list[dict], stages: list[str]) -> list[s
         if not trained:
             continue
         name = f"{label}, {stage} level"
-        verdict = budget_verdict(name, trained, stage) or f"{name}: no curve"
+        verdict = budget_verdict(name, trained, stage) or Finding(f"{name}: no curve")
         lacking = sum(curve_of(r, stage) is None for r in trained)
         if lacking:
-            verdict += f" ({lacking} of {len(trained)} jobs have no curve of it: their runs were not here to draw it)"
+            why = f" ({lacking} of {len(trained)} jobs have no curve of it: their runs were not here to draw it)"
+            verdict = dataclasses.replace(verdict, text=verdict.text + why)
         verdicts.append(verdict)
     return verdicts
 

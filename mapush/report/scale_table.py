@@ -8,7 +8,7 @@ import numpy as np
 from mapush.config import group_file
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching
-from mapush.report.formats import Table
+from mapush.report.formats import Finding, Table
 
 SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 """The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
@@ -42,7 +42,8 @@ def scale_table(results: list[dict], variant: str) -> Table:
         top = max(m[0] for m in measured)
         best = [f"{n} ({mean:.1f} \u00b1 {std:.1f} % S.R.)" for mean, std, n in measured if np.isclose(mean, top)]
         among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
-        findings.append(f"Best robot count{among} here: {' and '.join(best)}" + (", tied" if len(best) > 1 else ""))
+        text = f"Best robot count{among} here: {' and '.join(best)}" + (", tied" if len(best) > 1 else "")
+        findings.append(Finding(text, numbers={f"{m[2]}_robots_sr": float(m[0]) for m in measured}))
     findings += _scale_paper_findings(rows) + _reference_mid_finding(rows)
     lines = {_robots(n): matching(mine, num_agents=n) for n in counts}
     findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
@@ -62,7 +63,7 @@ def scale_table(results: list[dict], variant: str) -> Table:
     )
 
 
-def _scale_paper_findings(rows: list) -> list[str]:
+def _scale_paper_findings(rows: list) -> list[Finding]:
     """The paper's four readings of its scalability figure (paper IV-B-3; it gives no numbers), each judged on the
     means over seeds of the whole hierarchy (S.R., and C.T. where the paper says "both metrics") and of the mid
     level alone (S.R.), among the figure's robot counts that finished."""
@@ -114,17 +115,19 @@ def _scale_paper_findings(rows: list) -> list[str]:
     judged = {0: ("whole hierarchy", means(0)), 2: ("mid level alone", means(2))}
     lines = []
     for claim, judge in claims.items():
-        parts = []
+        parts, verdicts = [], []
         for column, (what, sr) in judged.items():
             verdict = judge(sr, column)
             if verdict is not None:
                 parts.append(f"{what}: {'holds' if verdict[0] else 'does not hold'} ({verdict[1]})")
+                verdicts.append(bool(verdict[0]))
         if parts:
-            lines.append(f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {'; '.join(parts)}")
+            text = f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {'; '.join(parts)}"
+            lines.append(Finding(text, all(verdicts)))  # holds where it holds for every level judged
     return lines
 
 
-def _reference_mid_finding(rows: list) -> list[str]:
+def _reference_mid_finding(rows: list) -> list[Finding]:
     """The mid level at the reference robot count against the original's best stored cylinder mid level."""
     ref = PAPER["scale"]["reference_mid"]
     values = next((cells[2].values for labels, cells in rows if labels[0] == str(ref["robots"])), [])
@@ -133,7 +136,8 @@ def _reference_mid_finding(rows: list) -> list[str]:
     mean, std, bar = float(np.mean(values)), float(np.std(values)), float(ref["success_rate"])
     verdict = "at or above it" if mean >= bar else ("below it, within the seeds' spread" if bar - mean <= std
                                                     else "below it")  # fmt: skip
-    return [
+    text = (
         f"Mid level with {ref['robots']} robots: {mean:.1f} \u00b1 {std:.1f} % S.R. over {len(values)} seeds; "
         f"the original's best stored cylinder mid level reached {bar:g} %: {verdict}"
-    ]
+    )
+    return [Finding(text, mean >= bar, {"mid_sr": mean, "mid_sr_std": std, "original_sr": bar})]

@@ -12,7 +12,7 @@ import numpy as np
 from mapush.config import group_file
 from mapush.report import plots
 from mapush.report.cells import collect
-from mapush.report.formats import Table
+from mapush.report.formats import Finding, Table
 from mapush.report.physics import object_drag, one_robot_capacity
 
 TEAM = group_file("experiment", "team")
@@ -79,14 +79,14 @@ def _range_text() -> str:
     return str(override).partition("=")[2].replace(",", "-").strip("[]") + " kg"
 
 
-def _findings(rows: list, masses: dict[str, float]) -> list[str]:
+def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
     """Per object and mass, the fewest robots that reach half success, and the margin they push at."""
     found = []
     by_task: dict[str, list] = {}
     for (task, n), cells in rows:
         by_task.setdefault(task, []).append((int(n), cells))
     for task, team_rows in by_task.items():
-        parts = []
+        parts, fewest = [], {}
         for k, mass in enumerate(masses.values()):
             done = [(n, cells[k]) for n, cells in team_rows if cells[k].values]
             if not done:
@@ -95,8 +95,11 @@ def _findings(rows: list, masses: dict[str, float]) -> list[str]:
             parts.append(
                 f"{mass:g} kg: {enough[0][0]} ({enough[0][1].note})" if enough else f"{mass:g} kg: none of {len(done)}"
             )
+            if enough:
+                fewest[f"{mass:g}_kg_robots"] = enough[0][0]
         if parts:
-            found.append(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts))
+            found.append(Finding(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts),
+                                 numbers=fewest))  # fmt: skip
     return found
 
 

@@ -69,12 +69,15 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
 
     # last fifth: 0.80 -> 0.70 and 0.90 -> 0.86: -7.0 +- 3.0 points; mean curve 0.65, 0.9, 0.85, 0.85, 0.78
     falling = [result([0.6, 0.9, 0.8, 0.8, 0.7]), result([0.7, 0.9, 0.9, 0.9, 0.86])]
-    assert budget_verdict("Ours", falling) == (
+    verdict = budget_verdict("Ours", falling)
+    assert verdict.holds is True  # it has done its work: the rule holds
+    assert verdict.numbers == pytest.approx({"tail_gain_points": -7.0, "tail_gain_std": 3.0, "limit_points": 3.0})
+    assert str(verdict) == (
         "Ours: the last 20 % of the budget added -7.0 \u00b1 3.0 points over 2 seeds (rule: < 3): "
         "flattened, then falling: the mean curve peaked at 90.0 % after 2.0M env-steps"
     )
     # a loss smaller than the rule's 3 points is flat, not falling
-    assert budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])]).endswith("(rule: < 3): flattened")
+    assert str(budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])])).endswith("(rule: < 3): flattened")
 
 
 def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
@@ -85,9 +88,11 @@ def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
         return {"curve": {"rule": RULE, "points": points}}
 
     never = budget_verdict("H+L", [result([0.0] * 5), result([0.0] * 5)])
-    assert never == "H+L: did not learn: 0 % success at every one of 10 evaluated checkpoints"
+    assert never.holds is False and str(never) == (
+        "H+L: did not learn: 0 % success at every one of 10 evaluated checkpoints"
+    )
     once = budget_verdict("H+L", [result([0.0, 0.0, 0.02, 0.0, 0.0])])  # one success once: it did learn a little
-    assert "did not learn" not in once and once.endswith("flattened")
+    assert once.holds is True and "did not learn" not in str(once) and str(once).endswith("flattened")
 
 
 def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
@@ -140,35 +145,32 @@ def test_the_main_tables_findings_from_hand_made_results():
         job("hl", 0, {"main": (0.0, 1.0), "path_only": (0.45, 0.80)}),  # the hand-written pusher: 45 %
         job("hl_ft", 0, {"main": (0.50, 0.70)}),
     ]
-    lines = _main_findings(results, PAPER["main"], "cuboid")
-    # Ours: S.R. (80 + 70) / 2 = 75.0 < 77.5; C.T. (0.5 + 0.6) / 2 = 0.55 <= 0.66
-    assert lines[0] == (
+    found = _main_findings(results, PAPER["main"], "cuboid")
+    # Ours: S.R. (80 + 70) / 2 = 75.0 < 77.5, C.T. (0.5 + 0.6) / 2 = 0.55 <= 0.66: the paper's claim fails on S.R.
+    assert found[0].holds is False
+    assert found[0].numbers == pytest.approx({"ours_sr": 75.0, "paper_sr": 77.5, "ours_ct": 0.55, "paper_ct": 0.66})
+    assert str(found[0]) == (
         "Cuboid: Ours S.R. 75.0 % vs the paper's 77.5 % (does not hold: below), C.T. 0.55 vs 0.66 (holds: at or below)"
     )
     # successes alone: (0.55 - 0.25) / 0.75 x 160 s = 64 s; the paper's (0.66 - 0.225) / 0.775 x 160 s = 89.8 s
-    assert lines[1] == (
-        "Cuboid: Ours' successes take 64 s on average, the paper's 90 s (from S.R. and C.T., a failure counting as "
-        "the 160 s timeout)"
-    )
-    assert lines[2] == "Cuboid: baselines below Ours: SA, H+L, H+L FT; at or above: M+L"
-    # SA beside the drag (4 kg x 9.81 x the friction 0.3-0.35: 11.8-13.7 N) and one robot's capacity
-    assert re.fullmatch(
-        r"Cuboid: SA 15\.0 % is below Ours; the object's drag 11\.8-13\.7 N against one robot's capacity "
-        r"[0-9.]+ N: one robot (can|cannot) move it alone",
-        lines[3],
-    )
-    assert lines[4:6] == [
-        "Cuboid: H+L 0.0 % is below the hand-written pusher's 45.0 % in its action space (H+L, path only)",
-        "Cuboid: H+L FT 50.0 % is at or above the hand-written pusher's 45.0 % in its action space (H+L, path only)",
-    ]
-    assert lines[6] == "Cuboid: the learned high level does not beat path following (-5.0 points of S.R.)"  # 75 - 80
-    assert lines[7] == "Cuboid: on legged Go1s Ours loses 10.0 points of S.R., within 10 points"  # 75 - 65
+    assert found[1].holds is None  # a reading, no claim
+    assert found[1].numbers == pytest.approx({"ours_success_s": 64.0, "paper_success_s": 89.8}, abs=0.1)
+    # the paper's claim that Ours beats every baseline: M+L (80 %) is at or above
+    assert found[2].holds is False and found[2].numbers["M+L"] == pytest.approx(80.0)
+    assert "at or above: M+L" in str(found[2])
+    # SA (10 + 20) / 2 = 15 % below Ours, beside the drag (4 kg x 9.81 x the friction 0.3-0.35: 11.8-13.7 N)
+    assert found[3].holds is True and found[3].numbers == pytest.approx({"sa_sr": 15.0, "ours_sr": 75.0})
+    assert re.search(r"drag 11\.8-13\.7 N against one robot's capacity [0-9.]+ N: one robot (can|cannot) move it",
+                     str(found[3]))  # fmt: skip
+    # H+L 0 % and H+L FT 50 % against the hand-written pusher's 45 %
+    assert [(f.holds, f.numbers["learned_sr"]) for f in found[4:6]] == [(False, 0.0), (True, 50.0)]
+    assert found[6].holds is False and found[6].numbers["gap_points"] == pytest.approx(-5.0)  # 75 - 80: path only
+    assert found[7].holds is True and found[7].numbers["gap_points"] == pytest.approx(10.0)  # 75 - 65 on Go1s
     # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
-    assert lines[8:] == ["Cuboid: on legged Go1s SA reaches 65.0 % of S.R., at or above Ours' 65.0 %"]
+    assert len(found) == 9 and found[8].holds is False
+    assert found[8].numbers == pytest.approx({"baseline_sr": 65.0, "ours_sr": 65.0})
     results[3]["evals"]["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
-    assert _main_findings(results, PAPER["main"], "cuboid")[8] == (
-        "Cuboid: on legged Go1s SA reaches 60.0 % of S.R., below Ours' 65.0 %"
-    )
+    assert _main_findings(results, PAPER["main"], "cuboid")[8].holds is True
     assert _main_findings(results, PAPER["main"], "tblock") == []
 
 
@@ -185,9 +187,9 @@ def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
         return {"method": "ours", "task": "cuboid", "seed": seed, "evals": {"main": main, "go1": go1},
                 "job_dir": f"ours{seed}"}  # fmt: skip
 
-    lines = _main_findings([job(0, 0.5, 0.40, 0.02), job(1, 0.4, 0.30, 0.0)], PAPER["main"], "cuboid")
+    found = _main_findings([job(0, 0.5, 0.40, 0.02), job(1, 0.4, 0.30, 0.0)], PAPER["main"], "cuboid")
     # 80 - 45 = 35 points; robot_tilt (40 + 30) / 2 = 35 %, robot_collision (2 + 0) / 2 = 1 %, diverged left out
-    assert lines[-1] == (
+    assert found[-1].holds is False and str(found[-1]) == (
         "Cuboid: on legged Go1s Ours loses 35.0 points of S.R., not within 10 points; "
         "episodes ended by robot_tilt 35 %, robot_collision 1 % (mean over 2 seeds)"
     )
@@ -201,9 +203,10 @@ def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
         return [(["3"], [Cell([50.0]), Cell([0.5]), Cell(mid)])]
 
     # 61 +- 1 is 11.3 points below 72.3: beyond the spread; 80 +- 2 at or above; 71 +- 3 within it
-    assert _reference_mid_finding(rows([60.0, 62.0]))[0].endswith("reached 72.3 %: below it")
-    assert _reference_mid_finding(rows([78.0, 82.0]))[0].endswith("reached 72.3 %: at or above it")
-    assert _reference_mid_finding(rows([68.0, 74.0]))[0].endswith("below it, within the seeds' spread")
+    below, above, within = (_reference_mid_finding(rows(mid))[0] for mid in ([60.0, 62.0], [78.0, 82.0], [68.0, 74.0]))
+    assert below.holds is False and str(below).endswith("reached 72.3 %: below it")
+    assert above.holds is True and above.numbers == {"mid_sr": 80.0, "mid_sr_std": 2.0, "original_sr": 72.3}
+    assert within.holds is False and str(within).endswith("below it, within the seeds' spread")
     assert _reference_mid_finding(rows([])) == []
 
 
@@ -292,7 +295,9 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
         for n, (sr, ct, mid) in made.items() for seed in (0, 1)
     ]  # fmt: skip
     findings = scale_table(results, "quick").findings
-    claims = dict(line.split(". Here, ") for line in findings if ". Here, " in line)
+    claims = dict(str(f).split(". Here, ") for f in findings if ". Here, " in str(f))
+    # each claim holds only where it holds for both the hierarchy and the mid level alone: none does here
+    assert [f.holds for f in findings if ". Here, " in str(f)] == [False] * 4
     paper = "The paper (1, 2, 3, 4 robots): "
     # hierarchy: 15 +- 5, 60 +- 10, 85 +- 5, 75 +- 5 %; C.T. 0.9, 0.6, 0.4, 0.5; mid level: 40, 40 +- 10, 70, 80 %
     assert claims == {
@@ -305,35 +310,36 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
         paper + "four robots do slightly worse than three": "whole hierarchy: holds (-10.0 points from 3 robots to 4); "
         "mid level alone: does not hold (+10.0 points from 3 robots to 4)",
     }
-    assert findings[0] == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)"
+    assert str(findings[0]) == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)" and findings[0].holds is None
     # 6 robots brought down to 3 robots' mean: a tie, named as one
     main = {"success_rate": 0.85, "completion_time": 0.3}
     tied = [{**r, "evals": {**r["evals"], "main": main}} if r["num_agents"] == 6 else r for r in results]
     best = "Best robot count here: 3 (85.0 \u00b1 5.0 % S.R.) and 6 (85.0 \u00b1 0.0 % S.R.), tied"
-    assert scale_table(tied, "quick").findings[0] == best
+    assert str(scale_table(tied, "quick").findings[0]) == best
 
 
 def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robots_that_push(tmp_path):
     from mapush.report.physics import object_drag, one_robot_capacity
     from mapush.report.team_table import team_plot, team_table
 
-    # cuboid: one robot pushes 2 and 4 kg (90 %), two robots 8 kg, nobody 16 kg; the cylinder has no job yet
+    # cuboid: one robot pushes 2 and 8 kg (90 %), two robots 24 kg, nobody 64 kg; the cylinder has no job yet
     rates = {1: (0.9, 0.9, 0.1, 0.0), 2: (0.9, 0.9, 0.8, 0.2), 3: (0.9, 0.9, 0.9, 0.3), 4: (0.8, 0.8, 0.9, 0.4)}
     results = [
         {"job_dir": f"agents={n},seed={seed}", "table": "team", "variant": "quick", "num_agents": n, "seed": seed,
-         "task": "cuboid", "evals": {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 4, 8, 16), made, strict=True)}}
+         "task": "cuboid", "evals": {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 8, 24, 64), made, strict=True)}}
         for n, made in rates.items() for seed in (0, 1)
     ]  # fmt: skip
     table = team_table(results, "quick")
-    assert table.columns == ["2 kg", "4 kg", "8 kg", "16 kg"]
+    assert table.columns == ["2 kg", "8 kg", "24 kg", "64 kg"]
     cells = dict((tuple(labels), cells) for labels, cells in table.rows)
-    low, high = object_drag("cuboid", ["task.object.mass=8"])
-    margin = (low + high) / 2 / (2 * one_robot_capacity())  # two robots at 8 kg
+    low, high = object_drag("cuboid", ["task.object.mass=24"])
+    margin = (low + high) / 2 / (2 * one_robot_capacity())  # two robots at 24 kg
     assert cells[("cuboid", "2")][2].text() == f"80.0 \u00b1 0.0 [margin {margin:.2f}]"
     assert cells[("cylinder", "3")][0].text().startswith("\u2014")  # no job: an empty cell
     assert "cylinder / 1 robots: no finished job" in table.missing
-    line = next(f for f in table.findings if f.startswith("cuboid:"))
-    assert line.startswith("cuboid: the fewest robots reaching 50 % S.R. by mass: 2 kg: 1 (margin ")
-    assert "8 kg: 2 (margin " in line and line.endswith("16 kg: none of 4")
+    found = next(f for f in table.findings if str(f).startswith("cuboid:"))
+    assert found.numbers == {"2_kg_robots": 1, "8_kg_robots": 1, "24_kg_robots": 2}  # 64 kg: none of the four
+    assert str(found).startswith("cuboid: the fewest robots reaching 50 % S.R. by mass: 2 kg: 1 (margin ")
+    assert "24 kg: 2 (margin " in str(found) and str(found).endswith("64 kg: none of 4")
     team_plot(table, tmp_path / "team.png")
     assert (tmp_path / "team.png").stat().st_size > 0
