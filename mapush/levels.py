@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -40,7 +41,7 @@ class Level:
 
     env: type
     layout: Callable[[dict], object] = SceneLayout.from_config  # what episode logs draw of a config's scene
-    frozen_mid: bool = False  # drives the robots through a frozen mid level (`mid=RUN_DIR`)
+    frozen_mid: bool = False  # drives the robots through a frozen mid level (`mid=RUN_DIR`, `frozen_mid_level`)
     planner: bool = False  # plans reference paths with OMPL (`level.path.plan_at_eval`, `plan_in_training`)
     walks_robots: bool = True  # its robots are walked by a low level, whose locomotion policy an eval records
     tracking: tuple[str, ...] = ()  # per-episode tracking errors its episodes end with; with them, its exception
@@ -97,7 +98,7 @@ def checked(cfg: DictConfig) -> dict:
     if level.frozen_mid:
         if cfg.mid:
             cfg.mid = plain["mid"] = str(Path(cfg.mid).resolve())
-        load_mid_policy(plain["mid"], plain["task"])
+        frozen_mid_level(plain)
     if plain["train"]["init_from"]:
         cfg.train.init_from = plain["train"]["init_from"] = str(_init_weights(plain))
     return plain
@@ -116,13 +117,26 @@ def _init_weights(cfg: dict) -> Path:
     return checkpoint.resolve()
 
 
+def frozen_mid_level(cfg: dict):
+    """The frozen mid level a high-level config drives (`mid`), checked to fit its task; loaded once, though
+    `checked` and `make_env` both ask for it (again when the run dir or checkpoint has changed since)."""
+    path = str(cfg["mid"])
+    changed = Path(path).stat().st_mtime_ns if path and Path(path).exists() else None
+    return _frozen(path, changed, cfg["task"]["name"], int(cfg["task"]["num_agents"]))
+
+
+@functools.lru_cache(maxsize=4)
+def _frozen(path: str, changed: int | None, task: str, agents: int):
+    return load_mid_policy(path, {"name": task, "num_agents": agents}, level="mid")
+
+
 def make_env(cfg: dict, evaluation: bool = False):
     """The env of a config. A high level gets its frozen mid level (if it drives one) and an OMPL planner where its
     paths are planned: at evaluation (`path.plan_at_eval`), in training with `path.plan_in_training`."""
     level = level_of(cfg)
     extra = {}
     if level.frozen_mid:
-        extra["mid"] = load_mid_policy(cfg["mid"], cfg["task"])
+        extra["mid"] = frozen_mid_level(cfg)
     if level.planner and cfg["level"]["path"]["plan_at_eval" if evaluation else "plan_in_training"]:
         extra["planner"] = make_planner(cfg)
     return level.env(cfg, evaluation=evaluation, **extra)

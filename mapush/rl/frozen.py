@@ -31,17 +31,18 @@ class FrozenMid:
         return actions.reshape(E, A, 3).clamp(-1.0, 1.0) * self.action_scale
 
 
-def load_mid_policy(target: str | Path | None, task_cfg: dict) -> FrozenMid:
-    """The mid level of `target` (a mid run dir: its latest checkpoint; or a model_<it>.pt in one).
+def load_mid_policy(target: str | Path | None, task_cfg: dict, level: str = "mid") -> FrozenMid:
+    """The frozen level of `target` (a run dir of `level`: its latest checkpoint; or a model_<it>.pt in one).
 
-    Raises BadInput when `target` is missing, is not a mid-level run, or was trained on another task or agent count.
+    Raises BadInput when `target` is missing, is a run of another level, or was trained on another task or agent
+    count.
     """
     if target in (None, "", "None"):
         raise BadInput("level=high needs the frozen mid level: mid=RUN_DIR (a mid-level run dir or model_<it>.pt)")
     policy = load_policy(target)
     mid_cfg = policy.cfg
-    if mid_cfg["level"]["name"] != "mid":
-        raise BadInput(f"mid={str(target)!r} is a {mid_cfg['level']['name']}-level run; valid: a mid-level run dir")
+    if mid_cfg["level"]["name"] != level:
+        raise BadInput(f"mid={str(target)!r} is a {mid_cfg['level']['name']}-level run; valid: a {level}-level run dir")
     trained = (mid_cfg["task"]["name"], mid_cfg["task"]["num_agents"])
     wanted = (task_cfg["name"], task_cfg["num_agents"])
     if trained != wanted or policy.obs_dim != local_dim(wanted[1]):

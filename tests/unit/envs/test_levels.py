@@ -55,3 +55,18 @@ def test_a_level_s_observations_are_its_config_terms(smoke_run):
         obs = make_env(cfg).observations()
         widths.append((obs["policy"].shape[-1], obs["critic"].shape[-1]))
     assert widths[1] == (widths[0][0] - 2, widths[0][1])
+
+
+def test_a_high_level_loads_its_frozen_mid_level_once_for_its_check_and_its_env(run_copy, monkeypatch):
+    import mapush.levels as levels
+    from mapush.config import compose_config
+
+    loads = []
+    real = levels.load_mid_policy
+    monkeypatch.setattr(levels, "load_mid_policy", lambda *a, **k: loads.append(a[0]) or real(*a, **k))
+    levels._frozen.cache_clear()
+    plain = levels.checked(compose_config(["debug=smoke", "level=high", f"mid={run_copy}", "num_envs=2"]))
+    env = levels.make_env(plain)
+    assert loads == [str(run_copy.resolve())] and env.mid is levels.frozen_mid_level(plain)
+    (run_copy / "model_9.pt").write_bytes((run_copy / "model_0.pt").read_bytes())  # the run goes on training
+    assert levels.frozen_mid_level(plain) is not env.mid and len(loads) == 2
