@@ -1,5 +1,5 @@
-"""The `mapush` command line: train, eval, play, ship (`runs`), sweep, ablate, scale, tables (`experiments`),
-bench, plan, calibrate, plot (`tools`), logs (`logs`).
+"""The `mapush` command line: train, eval, play, ship (`runs`), sweep, ablate, scale, tables, archive, stages
+(`experiments`), bench, plan, calibrate, plot (`tools`), logs (`logs`).
 
 Every command takes Hydra overrides (`key=value`); bad input is one line on stderr and exit code 2 (`main`).
 """

@@ -156,6 +156,25 @@ def archive(
     print(f"{out}: {len(written)} results written, {unchanged} already archived")
 
 
+stages_app = typer.Typer(help="The shared store of trained stages: adopt runs trained by hand.", no_args_is_help=True)
+app.add_typer(stages_app, name="stages")
+
+
+@stages_app.command(context_settings=PASS_THROUGH)
+def adopt(
+    ctx: typer.Context,
+    run: list[Path] = typer.Option(..., "--run", help="A run dir trained by hand (`mapush train`); repeat it."),
+) -> None:
+    """Copy the runs that are stages a sweep plans (the sweep's overrides follow, e.g. experiment=main
+    method=ours task=cuboid) into its store, so `mapush sweep` with those overrides reuses them."""
+    from mapush.experiments.adopt import adopt as adopt_runs
+
+    missing = [str(r) for r in run if not (r / "config.yaml").is_file()]
+    if missing:
+        raise BadInput(f"--run {missing[0]!r} is not a run dir (no config.yaml); valid: a dir `mapush train` made")
+    adopt_runs([r.resolve() for r in run], list(ctx.args))
+
+
 def _check_runs_dir(runs: Path) -> None:
     """BadInput unless `runs` (a --runs value) is a directory."""
     if not runs.is_dir():

@@ -231,3 +231,10 @@ def test_more_envs_than_memory_holds_is_one_line_naming_the_most(train_bad):
     line = assert_bad_input(train_bad("num_envs=100000000"), "num_envs=100000000", "GiB", "valid: num_envs <=")
     most = int(line.rpartition("<= ")[2])
     assert 1000 < most < 100000000
+
+
+def test_adopting_a_dir_that_is_no_run_is_one_line_and_adopts_nothing(cli, tmp_path):
+    (tmp_path / "notarun").mkdir()
+    proc = cli("stages", "adopt", "--run", tmp_path / "notarun", "experiment=main", f"sweep_root={tmp_path / 's'}")
+    assert_bad_input(proc, "--run", "notarun", "not a run dir", "valid:")
+    assert not (tmp_path / "s").exists()

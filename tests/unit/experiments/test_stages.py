@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 from pathlib import Path
 
@@ -24,9 +23,6 @@ from mapush.migrations import UNSET_LATER_KEYS
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
-SPEC = importlib.util.spec_from_file_location("adopt_runs", REPO / "tools" / "adopt_runs.py")
-adopt_runs = importlib.util.module_from_spec(SPEC)
-SPEC.loader.exec_module(adopt_runs)
 SHIPPED_GO1 = REPO / "mapush" / "lowlevel" / "pretrained" / "go1" / "policy.pt"
 SHIPPED_GO1_SHA256 = hashlib.sha256(SHIPPED_GO1.read_bytes()).hexdigest()[:16]
 """How a legged evaluation names the policy that walked its robots (`lowlevel_policy.sha256` in result.json)."""
@@ -236,7 +232,7 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
 
 @pytest.mark.slow
 def test_runs_trained_by_hand_as_a_sweeps_stages_are_adopted_and_reused(cli, tmp_path):
-    # a probe trained with `mapush train` and the recipe's config is that stage: tools/adopt_runs.py puts it in the
+    # a probe trained with `mapush train` and the recipe's config is that stage: `mapush stages adopt` puts it in the
     # store, and the sweep trains nothing. The high run named its mid run by path: its copy names the adopted one
     root = tmp_path / "sweeps"
     job = ["experiment=main", "method=sa", "task=cylinder"]
@@ -252,10 +248,12 @@ def test_runs_trained_by_hand_as_a_sweeps_stages_are_adopted_and_reused(cli, tmp
     unrelated = cli("train", "debug=smoke", "task=cuboid", f"train.run_dir={tmp_path / 'other'}")
     assert unrelated.returncode == 0, unrelated.stderr
 
-    adopted = adopt_runs.adopt([made["high"], tmp_path / "other", made["mid"]], [*job, *SMOKE, f"sweep_root={root}"])
-    assert set(adopted) == {made["mid"], made["high"]}  # the cuboid run is no stage of this sweep
-    assert adopted[made["mid"]].parents[2] == stages.stage_dir(root, mid.identity)
-    assert load_run_config(adopted[made["high"]]).mid == str(adopted[made["mid"]])
+    runs = [arg for run in (made["high"], tmp_path / "other", made["mid"]) for arg in ("--run", run)]
+    proc = _sweep(cli, root, "stages", "adopt", *runs, *job)
+    assert proc.returncode == 0, proc.stderr
+    assert f"not adopted (no planned stage without a run has its config): {tmp_path / 'other'}" in proc.stdout
+    (mid_copy,), (high_copy,) = (find_runs(stages.stage_dir(root, s.identity)) for s in (mid, high))
+    assert load_run_config(high_copy).mid == str(mid_copy.resolve())  # the high run names the adopted mid run
     plan = _sweep(cli, root, "sweep", "--dry-run", *job)
     assert plan.returncode == 0, plan.stderr
     assert "0 to train" in plan.stdout and plan.stdout.count("  reuse  ") == 2
@@ -263,8 +261,8 @@ def test_runs_trained_by_hand_as_a_sweeps_stages_are_adopted_and_reused(cli, tmp
     assert done.returncode == 0, done.stdout + done.stderr
     (result,) = [json.loads(p.read_text()) for p in root.glob(f"*/*/{RESULT}")]
     assert {name: Path(path).resolve() for name, path in result["stages"].items()} == {
-        "mid": adopted[made["mid"]],
-        "high": adopted[made["high"]],
+        "mid": mid_copy.resolve(),
+        "high": high_copy.resolve(),
     }
 
 

@@ -1,19 +1,19 @@
-"""Put runs trained by hand (`mapush train`) into a sweep's store as the stages they are, so the sweep reuses them.
+"""`mapush stages adopt`: put runs trained by hand (`mapush train`) into a sweep's store as the stages they are, so
+the sweep reuses them.
 
-A stage is its composed config, budget included (mapush/experiments/stages.py): a run that `mapush train` made
-with the config a sweep's stage composes to is that stage, trained already. A probe that becomes the recipe
-need not train again. For every stage the sweep plans that has no run yet, this script looks among RUN_DIRS for
-a run whose config has the stage's identity (a frozen `mid` named by path counts as the stage that run was
-adopted as, so adopt a hierarchy's mid and high runs together) and copies it into `stages/<identity>/` (weights
-hard-linked), its `mid` pointed at the adopted copy, with a `stage.yaml` that says where it came from. Then
-`mapush sweep` with the same overrides reuses it and evaluates it as it would a stage it trained.
+A stage is its composed config, budget included (`stages.py`): a run that `mapush train` made with the config a
+sweep's stage composes to is that stage, trained already, so a probe that becomes the recipe need not train again.
+For every stage the sweep plans that has no run yet, `adopt` looks among the runs for one whose config has the
+stage's identity (a frozen `mid` named by path counts as the stage that run was adopted as, so adopt a hierarchy's
+mid and high runs together) and copies it into `stages/<identity>/` (weights hard-linked), its `mid` pointed at the
+adopted copy, with a `stage.yaml` that says where it came from. Then `mapush sweep` with the same overrides reuses
+it and evaluates it as it would a stage it trained.
 
-    python tools/adopt_runs.py RUN_DIR... -- experiment=main method=ours task=cuboid,tblock
+    mapush stages adopt --run RUN_DIR [--run RUN_DIR ...] experiment=main method=ours task=cuboid,tblock
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from omegaconf import OmegaConf
@@ -67,10 +67,3 @@ def adopt(runs: list[Path], overrides: list[str]) -> dict[Path, Path]:
         if run not in adopted:
             print(f"not adopted (no planned stage without a run has its config): {run}")
     return adopted
-
-
-if __name__ == "__main__":
-    if "--" not in sys.argv[1:]:
-        sys.exit(__doc__.rsplit("\n\n", 1)[1])
-    split = sys.argv.index("--")
-    adopt([Path(a).resolve() for a in sys.argv[1:split]], sys.argv[split + 1 :])
