@@ -96,7 +96,8 @@ def calibrate(
     gain = cap.fit_push_gain(push["drag"], push["speed"])
     falls = cap.fall_sweep(reference, repeats, seed)
     curve = cap.fit_fall_curve(falls["load"], falls["fell"])
-    mass = float(OmegaConf.load(config_path)["mass"])
+    before = OmegaConf.to_container(OmegaConf.load(config_path))  # the tracker as it was: its mass, its other keys
+    mass = float(before["mass"])
     if gain is None or not LAG_GRID[0] <= mass / gain <= LAG_GRID[-1]:
         warnings.append(f"lag: the push sweep gives no force-speed line (push gain {gain}); left as it was")
     else:
@@ -110,7 +111,7 @@ def calibrate(
         warnings.append(f"fall: no fall under loads up to {cap.LOAD_GRID[-1]:g} N; left as it was")
     else:
         # the tracker as fitted so far (lag, capacity), its fall midpoint matched to the Go1's falls while pushing
-        trial = {**OmegaConf.to_container(OmegaConf.load(config_path)), **fitted, "force_cap": "planar"}
+        trial = {**before, **fitted, "force_cap": "planar"}
         so_far = ["lowlevel=tracker", *_as_overrides(trial, fall=False)]
         contact_load = cap.fit_contact_fall_load(so_far, curve, float(push["fell"].mean()), repeats, seed)
         if contact_load is None:
