@@ -129,6 +129,12 @@ def sim_threads(cfg: DictConfig | dict) -> int:
     return int(cfg["sim"]["nthread"]) or os.cpu_count() or 1
 
 
+def env_steps_per_iteration(cfg: dict) -> int:
+    """50 Hz control steps of one env that one PPO iteration trains on (a high-level decision holds several)."""
+    per_decision = int(cfg["level"].get("decision_steps", 1))
+    return int(cfg["num_envs"]) * int(cfg["algo"]["num_steps_per_env"]) * per_decision
+
+
 def to_plain(cfg: DictConfig) -> dict:
     """The config as plain, resolved Python containers (what rsl-rl and the env receive)."""
     return OmegaConf.to_container(cfg, resolve=True)

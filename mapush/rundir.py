@@ -13,6 +13,10 @@ from mapush.config import load_run_config
 from mapush.errors import BadInput
 
 CHECKPOINT = re.compile(r"model_(\d+)\.pt$")
+POLICY_FILE = "policy.pt"
+"""The exported TorchScript policy: local observation (n, d) -> deterministic action (n, 3)."""
+ONNX_FILE = "policy.onnx"
+"""The same policy as ONNX: input `obs` (batch, d), output `actions` (batch, 3); one file, normalizer included."""
 PACKAGE = Path(__file__).resolve().parent
 SHIPPED_PREFIX = "shipped:"
 SHIPPED_POLICIES = PACKAGE / "policies"

@@ -13,7 +13,8 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config
 from mapush.envs.low import LocomotionState
-from mapush.logging.metrics import CPU_TAG, McapLogWriter
+from mapush.logging.mcap_files import CPU_TAG
+from mapush.logging.metrics import McapLogWriter
 from mapush.sim.push import PushState
 
 STATE_FIELDS = {f.name for f in dataclasses.fields(PushState)} | {f.name for f in dataclasses.fields(LocomotionState)}

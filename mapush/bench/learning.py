@@ -23,7 +23,8 @@ from omegaconf import DictConfig
 
 from mapush.config import load_run_config, to_plain
 from mapush.errors import BadInput
-from mapush.eval.curves import evaluate_points, first_reaching, last_before_marks
+from mapush.eval.curve_points import first_reaching
+from mapush.eval.curves import evaluate_points, last_before_marks
 from mapush.rundir import checkpoints
 
 

@@ -1,5 +1,5 @@
 """The `mapush` command line: train, eval, play, ship (`runs`), sweep, ablate, scale, tables, archive, stages
-(`experiments`), bench, plan, calibrate, plot (`tools`), logs (`logs`).
+(`experiments`), bench, plan, calibrate, plot (`tools`), probe (`probe`), logs (`logs`).
 
 Every command takes Hydra overrides (`key=value`); bad input is one line on stderr and exit code 2 (`main`).
 """
@@ -13,7 +13,7 @@ import sys
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython; no git binary must not kill us
 
 # isort: off
-from mapush.cli import runs, experiments, tools, logs  # noqa: F401  (each registers its commands on `app`, in `--help`'s order)
+from mapush.cli import runs, experiments, tools, probe, logs  # noqa: F401  (each registers its commands on `app`, in `--help`'s order)
 
 # isort: on
 from mapush.cli.app import app

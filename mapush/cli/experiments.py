@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import typer
@@ -156,7 +157,11 @@ def archive(
     print(f"{out}: {len(written)} results written, {unchanged} already archived")
 
 
-stages_app = typer.Typer(help="The shared store of trained stages: adopt runs trained by hand.", no_args_is_help=True)
+stages_app = typer.Typer(
+    help="The shared store of trained stages: adopt runs trained by hand, carry stages over to a commit whose configs "
+    "changed only their form (rekey), hash every level's numbers (fingerprint).",
+    no_args_is_help=True,
+)
 app.add_typer(stages_app, name="stages")
 
 
@@ -173,6 +178,49 @@ def adopt(
     if missing:
         raise BadInput(f"--run {missing[0]!r} is not a run dir (no config.yaml); valid: a dir `mapush train` made")
     adopt_runs([r.resolve() for r in run], list(ctx.args))
+
+
+@stages_app.command(context_settings=PASS_THROUGH)
+def rekey(
+    ctx: typer.Context,
+    old: Path = typer.Argument(..., help="A checkout of the older commit (e.g. git worktree add /tmp/old COMMIT)."),
+    mid_run: Path = typer.Argument(..., help="A mid-level cuboid run dir, for the fingerprints' high level."),
+) -> None:
+    """Carry the stages a sweep trained at an older commit over to this one, whose configs name them differently
+    (the sweep's overrides follow, e.g. experiment=main); only if both commits' fingerprints agree, else exit 1."""
+    from mapush.config import load_run_config
+
+    if not (old / "mapush").is_dir():
+        raise BadInput(f"{str(old)!r} is not a mapush checkout (no mapush/ in it); valid: a checkout of another commit")
+    load_run_config(mid_run)  # BadInput unless it is a run dir
+    if not ctx.args:
+        raise BadInput("mapush stages rekey needs the sweep's overrides; valid: e.g. experiment=main")
+    from mapush.experiments.rekey import CheckoutFailed
+    from mapush.experiments.rekey import rekey as rekey_stages
+
+    try:
+        code = rekey_stages(old.resolve(), str(mid_run.resolve()), list(ctx.args))
+    except CheckoutFailed as err:
+        print(err, file=sys.stderr)
+        raise typer.Exit(1) from None
+    if code:
+        raise typer.Exit(code)
+
+
+@stages_app.command()
+def fingerprint(
+    mid_run: Path = typer.Argument(..., help="A mid-level cuboid run dir (mapush train debug=smoke will do)."),
+) -> None:
+    """Print every level's numbers hashed (seeded rollouts) as a JSON line: equal at two commits means a refactor
+    changed no behaviour."""
+    import json
+
+    from mapush.config import load_run_config
+
+    load_run_config(mid_run)  # BadInput unless it is a run dir
+    from mapush.experiments.fingerprint import fingerprint as hashes
+
+    print(json.dumps(hashes(str(mid_run))))
 
 
 def _check_runs_dir(runs: Path) -> None:

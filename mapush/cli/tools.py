@@ -21,21 +21,40 @@ def bench(
         "bench.learn.thresholds (JSON, and a PNG beside --json).",
     ),
     minutes: float = typer.Option(10.0, "--minutes", help="--learn: wall time of training."),
+    video: bool = typer.Option(
+        False,
+        "--video",
+        help="The cost of a headless video: --frames of env 0 (3 robots, the cylinder) rendered and encoded to --out.",
+    ),
+    frames: int = typer.Option(1000, "--frames", help="--video: frames to render."),
+    out: Path = typer.Option(Path("runs/video_dev/bench.mp4"), "--out", help="--video: the MP4 to write."),
 ) -> None:
-    """Measure throughput and where an iteration's time goes (docs/performance.md), or with --learn the
-    minutes of `mapush train` to a given evaluated success."""
+    """Measure throughput and where an iteration's time goes (docs/performance.md), with --learn the
+    minutes of `mapush train` to a given evaluated success, or with --video the time of a headless video."""
     import json
+    import sys
 
+    if video:
+        if learn:
+            raise BadInput("--video and --learn measure different things; valid: one of them")
+        if frames < 1:
+            raise BadInput(f"--frames {frames} is not valid; valid: 1 or more")
+        from mapush.viz.preflight import require_offscreen_gl
+
+        require_offscreen_gl()  # before MuJoCo is imported: it picks the OpenGL backend
     from mapush import bench as benchmarks
     from mapush.config import compose_config
 
-    cfg = compose_config(list(ctx.args))
-    if learn:
-        if minutes <= 0:
-            raise BadInput(f"--minutes {minutes} must be positive; valid: a number of minutes > 0")
-        result = benchmarks.run_learning_bench(cfg, list(ctx.args), minutes, Path(cfg.bench.learn.run_root))
+    if video:  # its own scene: the cylinder, one env (`mapush.bench.rendering.SCENE`), then the overrides
+        result = benchmarks.run_video_bench(list(ctx.args), frames, out, " ".join(["mapush", *sys.argv[1:]]))
     else:
-        result = benchmarks.run_bench(cfg)
+        cfg = compose_config(list(ctx.args))
+        if learn:
+            if minutes <= 0:
+                raise BadInput(f"--minutes {minutes} must be positive; valid: a number of minutes > 0")
+            result = benchmarks.run_learning_bench(cfg, list(ctx.args), minutes, Path(cfg.bench.learn.run_root))
+        else:
+            result = benchmarks.run_bench(cfg)
     text = json.dumps(result, indent=2)
     print(text)
     if json_path:

@@ -24,8 +24,7 @@ from mapush.errors import BadInput
 from mapush.eval.rollout import evaluate
 from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import load_policy, read_checkpoint
-from mapush.rl.runner import ONNX_FILE, POLICY_FILE
-from mapush.rundir import checkpoints
+from mapush.rundir import ONNX_FILE, POLICY_FILE, checkpoints
 
 RUN_FILES = ("config.yaml", "overrides.yaml", "meta.json")
 MID_DIR = "mid"

@@ -16,8 +16,8 @@ from mapush.levels import build, checked, load_into, scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
-from mapush.rl.runner import POLICY_FILE, export_policy, learn
-from mapush.rundir import checkpoint_iteration, checkpoints
+from mapush.rl.runner import export_policy, learn
+from mapush.rundir import POLICY_FILE, checkpoint_iteration, checkpoints
 from mapush.schema import check_config
 from mapush.viz.video import attach_training_video
 

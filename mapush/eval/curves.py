@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mapush.config import env_steps_per_iteration
 from mapush.eval.rollout import evaluate_quietly
-from mapush.rl.runner import env_steps_per_iteration
 from mapush.rundir import checkpoint_iteration, checkpoints
 
 
@@ -55,21 +55,3 @@ def evaluate_points(cfg: dict, checkpoints_: list[Path], episodes: int, seeds: l
 def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: int, seeds: list[int]) -> list[dict]:
     """Evaluated success and completion time of the run's checkpoints (`curve_checkpoints`), under `cfg`."""
     return evaluate_points(cfg, curve_checkpoints(run_dir, cfg, every_env_steps), episodes, seeds)
-
-
-def first_reaching(points: list[dict], threshold: float) -> dict | None:
-    """The first point whose success rate is at least `threshold` (its keys but the rates), or None."""
-    for point in points:
-        if point["success_rate"] >= threshold - 1e-6:  # rates are float32 means: 0.6 may be 0.59999996
-            return {k: v for k, v in point.items() if not k.startswith(("success", "completion"))}
-    return None
-
-
-def tail_gain(points: list[dict], tail: float) -> float | None:
-    """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus the rate of the
-    earlier point nearest to (1 - tail) of the final env-steps (the earlier of two as near); None with one point."""
-    if len(points) < 2:
-        return None
-    cut = (1 - tail) * points[-1]["env_steps"]
-    start = min(points[:-1], key=lambda p: (abs(p["env_steps"] - cut), p["env_steps"]))
-    return points[-1]["success_rate"] - start["success_rate"]

@@ -31,6 +31,7 @@ from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
+from mapush.experiments.results import RESULT, SUPERSEDED, read_result, recorded_stage_seconds, write_result
 from mapush.experiments.stage_plan import (
     PlannedStage,
     applies,
@@ -43,26 +44,11 @@ from mapush.experiments.stage_plan import (
 )
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes, still_valid
-from mapush.migrations import stamp, upgrade
-from mapush.rl.runner import POLICY_FILE
-from mapush.rundir import PACKAGE, checkpoints, find_runs, is_complete
+from mapush.rundir import PACKAGE, POLICY_FILE, checkpoints, find_runs, is_complete
 
 LOADED_AT = time.time()
 """When this process imported mapush: a sweep's workers keep the code they started with for every job they run,
 but read the config files anew for each job."""
-
-
-RESULT = "result.json"
-"""A finished job's record, written by `run_job`, read by `read_result`."""
-
-
-def read_result(path: Path) -> dict:
-    """A job's `result.json` (or the result it superseded) as today's form (`migrations.upgrade`)."""
-    return upgrade(json.loads(Path(path).read_text()), str(path))
-
-
-SUPERSEDED = "result.superseded.json"
-"""Where a job's earlier result goes when the experiment changed under it (`result_changes`)."""
 
 
 STAGE_CURVE = "stage_curve.json"
@@ -154,13 +140,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
     }
     if earlier is not None:
         result["supersedes"] = SUPERSEDED  # the result it replaces, whose evaluations it keeps where they hold
-    return _write_json(done, stamp(result))
-
-
-def _write_json(path: Path, data: dict) -> dict:
-    """Write `data` (a job's result, a stage's curve) to `path` atomically; returns it."""
-    write_json(path, data)
-    return data
+    return write_result(done, result)
 
 
 def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, dict]:
@@ -207,7 +187,7 @@ def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
             return drawn["points"]
     cfg = to_plain(load_run_config(run_dir))
     points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"])
-    _write_json(path, {**spec, "points": points})
+    write_json(path, {**spec, "points": points})
     return points
 
 
@@ -221,7 +201,7 @@ def _with_stage_curves(result: dict, cfg: DictConfig, path: Path) -> dict:
         return result
     result["stage_curves"] = curves
     result["eval_wall_s"] = round(float(result.get("eval_wall_s", 0.0)) + time.perf_counter() - started, 1)
-    return _write_json(path, result)
+    return write_result(path, result)
 
 
 def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:
@@ -234,16 +214,6 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     if not path.is_file():
         return None
     return None if result_changes(read_result(path), cfg, planned, archive) else path
-
-
-def recorded_stage_seconds(runs: dict[str, Path]) -> dict[str, float]:
-    """Each stage's training core-seconds as its run records them now (`stages.stage_core_seconds`); a stage whose
-    logs cannot be read is left out."""
-    seconds = {}
-    for name, path in runs.items():
-        with contextlib.suppress(BadInput, OSError):
-            seconds[name] = round(stages.stage_core_seconds(path), 3)  # a smoke iteration can take < 0.05 s
-    return seconds
 
 
 def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
@@ -294,11 +264,6 @@ def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:
     if stage not in runs:
         raise BadInput(f"override {override!r} refers to stage {stage!r}, not trained before it")
     return f"{key}={quoted(runs[stage])}"
-
-
-def every_stage_override(overrides: list[str]) -> str:
-    """A sweep job's `overrides` (extra overrides for every stage) as one Hydra override: `overrides=['a=1','b=2']`."""
-    return "overrides=[" + ",".join(repr(o) for o in overrides) + "]"
 
 
 def quoted(path: Path) -> str:

@@ -9,10 +9,9 @@ from typing import NamedTuple
 
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import group_file, group_options
+from mapush.config import env_steps_per_iteration, group_file, group_options
 from mapush.errors import BadInput
 from mapush.experiments import stages
-from mapush.rl.runner import env_steps_per_iteration
 
 STAGE_BUDGET_KEYS = ("num_envs", "env_steps")
 """What a budget sets for each stage (and what a stage's `by_task` entry may set for one task)."""

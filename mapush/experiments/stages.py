@@ -14,7 +14,9 @@ config (a reward weight, the tracker's calibration, the budget) is another ident
 from __future__ import annotations
 
 import contextlib
+import copy
 import fcntl
+import functools
 import hashlib
 import json
 import os
@@ -24,13 +26,11 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from mapush.atomic import write_yaml
-from mapush.config import compose_config, load_run_config, sim_threads, to_plain
-from mapush.logging.mcap_files import training_scalars
-from mapush.logging.metrics import CPU_TAG, THREADS_TAG
+from mapush.atomic import read_yaml, write_yaml
+from mapush.config import compose_config, env_steps_per_iteration, load_run_config, sim_threads, to_plain
+from mapush.logging.mcap_files import CPU_TAG, THREADS_TAG, training_scalars
 from mapush.migrations import UNSET_LATER_KEYS, stamp, upgrade
-from mapush.rl.runner import POLICY_FILE, env_steps_per_iteration
-from mapush.rundir import checkpoint_iteration, checkpoints, find_runs
+from mapush.rundir import POLICY_FILE, checkpoint_iteration, checkpoints, find_runs
 
 STORE = "stages"
 """The store's folder under `sweep_root`."""
@@ -119,12 +119,12 @@ def identity_of(run_dir: Path) -> str | None:
 
 def stands_for(sweep_root: Path, key: str) -> list[str]:
     """The identities stage `key` stands for: its own, then those of the stages it was adopted from, the one first
-    trained last (`tools/rekey_stages.py`: the same runs under a config that changed only its form)."""
+    trained last (`mapush stages rekey`: the same runs under a config that changed only its form)."""
     found: list[str] = []
     while key and key not in found:
         found.append(key)
         record = stage_dir(sweep_root, key) / IDENTITY_FILE
-        key = (read_identity(record).get("adopted_from") or {}).get("identity") if record.is_file() else None
+        key = (_record(record).get("adopted_from") or {}).get("identity") if record.is_file() else None
     return found
 
 
@@ -187,8 +187,20 @@ def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:
 
 
 def read_identity(record: Path) -> dict:
-    """A stage's `stage.yaml` (`write_identity`) as today's form, plain."""
-    return upgrade(OmegaConf.to_container(OmegaConf.load(record)), str(record))
+    """A stage's `stage.yaml` (`write_identity`) as today's form, plain (a copy the caller may change)."""
+    return copy.deepcopy(_record(record))
+
+
+def _record(record: Path) -> dict:
+    """`read_identity`, shared: a table reads each of hundreds of records many times, so each is parsed once
+    while its file stays as it is (its path, size and modification time)."""
+    found = os.stat(record)
+    return _parsed_record(str(Path(record).resolve()), found.st_size, found.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=4096)
+def _parsed_record(path: str, _size: int, _mtime_ns: int) -> dict:
+    return upgrade(read_yaml(path), path)
 
 
 def copy_run(run_dir: Path, target: Path) -> None:

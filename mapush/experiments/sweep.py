@@ -24,7 +24,8 @@ from mapush.errors import BadInput, first_line
 from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
 from mapush.experiments.archive import load_results
-from mapush.experiments.pipeline import RESULT, archived_result, every_stage_override, read_result, run_job
+from mapush.experiments.pipeline import archived_result, run_job
+from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes

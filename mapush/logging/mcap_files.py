@@ -23,6 +23,11 @@ from mcap.writer import CompressionType, Writer
 from mapush.atomic import replacing
 from mapush.errors import BadInput
 
+THREADS_TAG = "Perf/threads"
+"""Each iteration's MuJoCo threads, beside its times: what its wall time is multiplied by to count core-seconds."""
+CPU_TAG = "Perf/cpu_s"
+"""Each iteration's CPU seconds (the process's, every thread): its core-seconds, however crowded the machine was."""
+
 
 @dataclass
 class Contents:

@@ -27,10 +27,8 @@ from mcap.writer import CompressionType, Writer
 from rsl_rl.utils import LogWriter
 from rsl_rl.utils.logger import Logger
 
-THREADS_TAG = "Perf/threads"
-"""Each iteration's MuJoCo threads, beside its times: what its wall time is multiplied by to count core-seconds."""
-CPU_TAG = "Perf/cpu_s"
-"""Each iteration's CPU seconds (the process's, every thread): its core-seconds, however crowded the machine was."""
+from mapush.logging.mcap_files import CPU_TAG, THREADS_TAG
+
 SCALAR_SCHEMA = {
     "type": "object",
     "title": "mapush.Scalar",

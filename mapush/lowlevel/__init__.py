@@ -5,11 +5,11 @@ states and writes commands for all envs and agents at once: `lowlevel=tracker` (
 command with a lag) or `lowlevel=go1` (the legged Go1 and its locomotion policy).
 """
 
-from mapush.lowlevel.go1 import Go1
-from mapush.lowlevel.tracker import Tracker
+import importlib
 
-BACKENDS = {"tracker": Tracker, "go1": Go1}
-"""Registry: a low-level config's backend (`backend_name`) -> its class."""
+BACKENDS = {"tracker": "mapush.lowlevel.tracker:Tracker", "go1": "mapush.lowlevel.go1:Go1"}
+"""Registry: a low-level config's backend (`backend_name`) -> its class, imported when first used (the Go1's
+module loads PyTorch, which reading a config's policy fingerprint or a table does not need)."""
 
 
 def backend_name(lowlevel: dict) -> str:
@@ -19,4 +19,5 @@ def backend_name(lowlevel: dict) -> str:
 
 def backend_of(lowlevel: dict):
     """The backend class a low-level config runs on."""
-    return BACKENDS[backend_name(lowlevel)]
+    module, _, name = BACKENDS[backend_name(lowlevel)].partition(":")
+    return getattr(importlib.import_module(module), name)

@@ -28,7 +28,7 @@ from pathlib import Path
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.experiments.stages import run_threads, stage_core_seconds, stage_paths
-from mapush.rl.runner import POLICY_FILE
+from mapush.rundir import POLICY_FILE
 
 
 def measured_cost(
@@ -79,7 +79,7 @@ def _cost_of(results: list[dict], earlier: list[dict], stage_seconds: Callable[[
     core-hours and in core-seconds (`seconds`)."""
     jobs_now = len(results)
     results = results + earlier
-    groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (tools/rekey_stages.py) train once
+    groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (mapush stages rekey) train once
     for path in {path.resolve() for r in results for path in stage_paths(r)}:
         groups.setdefault(_original_stage(path), []).append(path)
     recorded = _recorded_stage_seconds(results)

@@ -15,17 +15,20 @@ from mapush.config import compose_config, to_plain
 G = 9.81
 
 
-def object_drag(task: str, overrides=()) -> tuple[float, float]:
-    """N; the least and greatest floor drag of the task's object: its mass x g x the friction range's ends."""
-    return _object_drag(task, tuple(overrides))
+def object_drag(task: str, overrides=(), mass: float | None = None) -> tuple[float, float]:
+    """N; the least and greatest floor drag of the task's object: its mass (or `mass`, kg) x g x the friction
+    range's ends."""
+    own_mass, (low, high) = _object(task, tuple(overrides))
+    mass = own_mass if mass is None else mass
+    return mass * G * low, mass * G * high
 
 
 @functools.cache  # the tables ask for each object's drag once per cell
-def _object_drag(task: str, overrides: tuple[str, ...]) -> tuple[float, float]:
+def _object(task: str, overrides: tuple[str, ...]) -> tuple[float, tuple[float, float]]:
+    """The task's object as composed: its mass (kg) and its floor friction range."""
     obj = to_plain(compose_config([f"task={task}", *overrides]))["task"]["object"]
-    mass = obj.get("mass") or sum(part["mass"] for part in obj["parts"])
     low, high = obj["friction"]
-    return mass * G * float(low), mass * G * float(high)
+    return obj.get("mass") or sum(part["mass"] for part in obj["parts"]), (float(low), float(high))
 
 
 def tracker_capacity(lowlevel: dict, speed: float) -> float:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mapush.eval.curves import first_reaching, tail_gain
+from mapush.eval.curve_points import first_reaching, tail_gain
 from mapush.report.formats import Finding
 
 

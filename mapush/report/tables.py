@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from mapush.atomic import write_json, write_text
-from mapush.experiments.archive import load_results, made_otherwise
+from mapush.experiments.archive import load_results, made_otherwise_all
 from mapush.report import plots
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
@@ -50,8 +50,8 @@ def write_tables(
     a modified sweep never mixes with the plain one.
     """
     results = load_results(roots)
-    for r in results:
-        r["made_otherwise"] = made_otherwise(r)
+    out.mkdir(parents=True, exist_ok=True)
+    made_otherwise_all(results, memo=out / CHECKED)
     variants = sorted({r["variant"] for r in results} | {"quick"})
     out.mkdir(parents=True, exist_ok=True)
     tables, kept = [], []
@@ -90,5 +90,8 @@ def write_tables(
     return tables, kept
 
 
+CHECKED = "jobs_checked.json"
+"""What the last `mapush tables` into a dir found of each archived job against its experiment then (kept there, so
+that the next finds it again without composing the job's configs while nothing it depends on changed)."""
 BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table, "team": team_table}
 """Each table `mapush tables` writes, by the `table` its experiment names."""

@@ -33,7 +33,7 @@ def capacity_margin(task: str, mass: float, robots: int, capacity: float | None)
     """The object's drag at `mass` (the middle of its friction range) over `robots` x one robot's `capacity`."""
     if not capacity:
         return None
-    low, high = object_drag(task, [f"task.object.mass={mass}"])
+    low, high = object_drag(task, mass=mass)
     return (low + high) / 2 / (robots * capacity)
 
 

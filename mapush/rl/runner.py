@@ -17,11 +17,7 @@ from mapush.logging.metrics import IterationLogger, McapLogWriter
 from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.retention import SCORE_KEY, SUCCESS_TAG, Retention
-
-POLICY_FILE = "policy.pt"
-"""The exported TorchScript policy: local observation (n, d) -> deterministic action (n, 3)."""
-ONNX_FILE = "policy.onnx"
-"""The same policy as ONNX: input `obs` (batch, d), output `actions` (batch, 3); one file, normalizer included."""
+from mapush.rundir import ONNX_FILE, POLICY_FILE
 
 
 class MapushRunner(OnPolicyRunner):
@@ -87,12 +83,6 @@ def train_cfg_for(cfg: dict, rows_per_env: int, total_iterations: int) -> dict:
         "threads": sim_threads(cfg),
     }
     return train_cfg
-
-
-def env_steps_per_iteration(cfg: dict) -> int:
-    """50 Hz control steps of one env that one PPO iteration trains on (a high-level decision holds several)."""
-    per_decision = int(cfg["level"].get("decision_steps", 1))
-    return int(cfg["num_envs"]) * int(cfg["algo"]["num_steps_per_env"]) * per_decision
 
 
 def seed_everything(seed: int) -> None:

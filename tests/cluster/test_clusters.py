@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 from paths import REPO
 
-from mapush.experiments.pipeline import RESULT
+from mapush.experiments.results import RESULT
 
 SLURM_LOCAL = REPO / "tools" / "slurm_local.sh"
 SLURM_CONF = Path("/etc/slurm/slurm.conf")

@@ -1,5 +1,5 @@
 """`mapush bench`: it runs and reports its figures (the figures themselves are never asserted), its iteration
-breakdown accounts for the iteration, and `--learn` finds when thresholds are first reached."""
+breakdown accounts for the iteration, `--learn` finds when thresholds are first reached, and `--video` renders."""
 
 from __future__ import annotations
 
@@ -9,10 +9,12 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from stand_ins import assert_bad_input
 
 from mapush.bench.learning import checkpoint_marks
 from mapush.bench.throughput import iteration_breakdown
-from mapush.eval.curves import env_steps_at, first_reaching
+from mapush.eval.curve_points import first_reaching
+from mapush.eval.curves import env_steps_at
 
 
 @pytest.mark.slow
@@ -102,3 +104,22 @@ def test_bench_learn_refuses_a_non_positive_time(cli, tmp_path):
     proc = cli("bench", "--learn", "--minutes", "0", "debug=smoke")
     assert proc.returncode == 2 and "--minutes 0.0 must be positive" in proc.stderr
     assert not (tmp_path / "runs").exists()
+
+
+def test_bench_video_refuses_no_frames_and_learn_at_once(cli, tmp_path):
+    assert_bad_input(cli("bench", "--video", "--frames", "0"), "--frames 0", "valid: 1 or more")
+    assert_bad_input(cli("bench", "--video", "--learn"), "--video and --learn", "valid: one of them")
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.slow
+def test_bench_video_renders_encodes_and_reports_its_times(cli, tmp_path):
+    pytest.importorskip("av")
+    out, figures = tmp_path / "bench.mp4", tmp_path / "figures" / "bench.json"
+    proc = cli("bench", "--video", "--frames", "5", "--out", out, "--json", figures, "log.video.width=320")
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(figures.read_text())
+    assert json.loads(proc.stdout) == result
+    assert (result["frames"], result["width"], result["robots"]) == (5, 320, 3)
+    assert result["video_s"] > 0 and out.stat().st_size > 0  # file_mb: a few small frames round to 0.0
+    assert result["command"].startswith("mapush bench --video")

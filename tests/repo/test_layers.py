@@ -1,8 +1,11 @@
-"""The package's structure: layers that point one way (import-linter's contract in pyproject.toml), no cycles."""
+"""The package's structure: layers that point one way (import-linter's contract in pyproject.toml), no cycles;
+modules with names of their own and of readable length; levels told apart only by their registry."""
 
 from __future__ import annotations
 
 import graphlib
+import re
+from collections import Counter
 
 import grimp
 import pytest
@@ -10,6 +13,7 @@ from importlinter.cli import lint_imports
 from paths import REPO
 
 ROOT = REPO
+MAX_MODULE_LINES = 350
 
 
 def test_the_layers_contract_is_kept(capsys):
@@ -39,3 +43,24 @@ def test_a_cycle_is_caught(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
     with pytest.raises(graphlib.CycleError):
         assert_acyclic("cyclic")
+
+
+def test_every_module_has_its_own_name_and_fits_on_a_few_screens():
+    # a newcomer finds a module by its name alone, and reads it whole
+    modules = [p for p in (REPO / "mapush").rglob("*.py") if "__pycache__" not in p.parts]
+    names = Counter(p.name for p in modules if p.name not in ("__init__.py", "__main__.py"))
+    assert [name for name, count in names.items() if count > 1] == []
+    long = {str(p.relative_to(REPO)): n for p in modules if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES}
+    assert long == {}
+
+
+def test_no_code_outside_the_level_registry_asks_which_level_it_holds():
+    pattern = re.compile(r"""\blevel(?:["'\]\[.]{1,4}name["'\]]{0,2}|_name)?\s*[!=]=\s*["']""")
+    found = [
+        f"{p.relative_to(REPO)}:{i}"
+        for p in (REPO / "mapush").rglob("*.py")
+        if p.name != "levels.py"
+        for i, line in enumerate(p.read_text().splitlines(), 1)
+        if pattern.search(line)
+    ]
+    assert found == []

@@ -9,7 +9,8 @@ import torch
 
 from mapush.config import compose_config, to_plain
 from mapush.envs.mid import MidPushEnv
-from mapush.lowlevel import BACKENDS
+from mapush.lowlevel import backend_of
+from mapush.lowlevel.tracker import Tracker
 from mapush.sim.push import PushSim
 
 WALL_MASS = 1000.0
@@ -43,7 +44,7 @@ def _make_wall(sim: PushSim) -> None:
 def _planar_forces(force_cap: str, command: list[float], cap: float = 30.0) -> np.ndarray:
     """The slides' force norms (N) at every policy step of a robot driven at `command` into a wall for 2 s."""
     cfg = _cfg("task.num_agents=1", f"lowlevel.force_cap={force_cap}", f"lowlevel.max_force={cap}")
-    backend = BACKENDS["tracker"](cfg["lowlevel"])
+    backend = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
     sim = PushSim(cfg["sim"], cfg["task"], backend, 1)
     _make_wall(sim)
     sim.reset(np.arange(1), _wall_layout(1, cfg))
@@ -102,6 +103,6 @@ def test_a_bad_fall_model_is_one_line():
     from mapush.errors import BadInput
 
     with pytest.raises(BadInput, match=r"lowlevel\.fall"):
-        BACKENDS["tracker"].check({"fall": {"load_n": 20.0}})
+        Tracker.check({"fall": {"load_n": 20.0}})
     with pytest.raises(BadInput, match="force_cap"):
-        BACKENDS["tracker"].check({"force_cap": "norm"})
+        Tracker.check({"force_cap": "norm"})

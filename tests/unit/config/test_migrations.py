@@ -10,7 +10,7 @@ from omegaconf import OmegaConf
 from paths import REPO
 
 from mapush.errors import BadInput
-from mapush.experiments import pipeline, stages
+from mapush.experiments import results, stages
 from mapush.migrations import FORMAT_VERSION, upgrade
 
 
@@ -35,13 +35,13 @@ def test_stage_records_are_written_with_their_version_and_old_ones_read(tmp_path
 
 
 def test_a_result_from_before_the_key_reads_as_today(tmp_path):
-    path = tmp_path / pipeline.RESULT
+    path = tmp_path / results.RESULT
     path.write_text(json.dumps({"evals": {}, "stages": {}}))
-    assert pipeline.read_result(path)["format_version"] == FORMAT_VERSION
+    assert results.read_result(path)["format_version"] == FORMAT_VERSION
 
 
 def test_the_committed_results_all_read():
     """Every result.json kept in git (results/jobs/) reads with this mapush."""
-    found = list((REPO / "results" / "jobs").glob("**/" + pipeline.RESULT))
+    found = list((REPO / "results" / "jobs").glob("**/" + results.RESULT))
     assert found
-    assert all(pipeline.read_result(p)["format_version"] == FORMAT_VERSION for p in found)
+    assert all(results.read_result(p)["format_version"] == FORMAT_VERSION for p in found)

@@ -10,7 +10,7 @@ import pytest
 from stand_ins import stage_run
 
 from mapush.experiments.archive import ARCHIVED_FROM, archive_results, load_results
-from mapush.experiments.pipeline import RESULT, SUPERSEDED
+from mapush.experiments.results import RESULT, SUPERSEDED
 from mapush.report.cost import measured_cost
 from mapush.report.main_table import main_table
 
@@ -103,7 +103,7 @@ def test_archive_rejects_a_missing_runs_dir_and_writes_nothing(cli, tmp_path):
 
 def test_archived_jobs_keep_relative_stage_paths_and_adopted_stages_count_once(tmp_path, monkeypatch):
     # as a sweep writes them: stage paths relative to where it ran; the cylinder's seed-1 job names a stage that
-    # tools/rekey_stages.py adopted from the one seed 0 names (the same training, counted once)
+    # `mapush stages rekey` adopted from the one seed 0 names (the same training, counted once)
     monkeypatch.chdir(tmp_path)
     store = tmp_path / "runs" / "sweeps" / "stages"
     old = stage_run(store / "00000000000000aa" / "mid" / "cylinder", "run", 1, [{0: (1800.0, 1800.0)}])

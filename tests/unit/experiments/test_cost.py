@@ -10,8 +10,7 @@ import pytest
 from stand_ins import stage_run
 
 from mapush.experiments.stages import stage_core_seconds
-from mapush.logging.mcap_files import training_scalars
-from mapush.logging.metrics import CPU_TAG
+from mapush.logging.mcap_files import CPU_TAG, training_scalars
 from mapush.report.cost import cost_after, cost_by, cost_line, measured_cost
 from mapush.report.formats import Table, markdown, sidecar
 
@@ -207,7 +206,7 @@ def test_an_earlier_result_of_other_stages_is_given_apart_not_counted(two_jobs, 
 
 
 def test_a_stage_adopted_into_a_new_identity_is_trained_once(tmp_path):
-    # tools/rekey_stages.py copies a stage's run under a new identity; results naming either count its training once
+    # `mapush stages rekey` copies a stage's run under a new identity; results naming either count its training once
     store = tmp_path / "sweeps" / "stages"
     old = stage_run(store / "00000000000000aa" / "mid" / "cuboid", "run", 1, [{0: (1800.0, 1800.0)}])
     (old.parents[2] / "stage.yaml").write_text("identity: 00000000000000aa\n")

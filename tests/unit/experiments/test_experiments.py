@@ -19,11 +19,10 @@ from conftest import MAPUSH
 from omegaconf import OmegaConf
 
 from mapush.config import group_options
-from mapush.experiments.pipeline import RESULT
+from mapush.experiments.results import RESULT
 from mapush.experiments.stage_plan import iterations_for, stage_plan
 from mapush.experiments.workers import GRACE_S
-from mapush.logging.mcap_files import summary, training_scalars
-from mapush.logging.metrics import THREADS_TAG
+from mapush.logging.mcap_files import THREADS_TAG, summary, training_scalars
 from mapush.report.cells import PAPER
 from mapush.rundir import find_runs
 

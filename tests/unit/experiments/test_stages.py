@@ -12,9 +12,10 @@ from paths import REPO
 
 from mapush.config import compose_config, load_run_config
 from mapush.errors import BadInput
-from mapush.experiments import pipeline, stage_plan, stages
+from mapush.experiments import archive, pipeline, stage_plan, stages
 from mapush.experiments.archive import made_otherwise
-from mapush.experiments.pipeline import RESULT, SUPERSEDED, run_job
+from mapush.experiments.pipeline import run_job
+from mapush.experiments.results import RESULT, SUPERSEDED, read_result
 from mapush.experiments.stage_plan import planned_stages, stage_budget
 from mapush.experiments.stages import compose_stage, identity_of
 from mapush.experiments.staleness import result_changes
@@ -314,7 +315,7 @@ def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli
     assert "kept as they are (rerun_changed=true runs them again)" in plan.stdout
     plan = cli(*args, "rerun_changed=true")
     assert "they run again" in plan.stdout and "2 stages to run; 2 to train" in plan.stdout
-    # the planned stage was adopted from that one (tools/rekey_stages.py: the same run, a config of another form)
+    # the planned stage was adopted from that one (`mapush stages rekey`: the same run, a config of another form)
     record = root / "stages" / now["high"] / "stage.yaml"
     record.parent.mkdir(parents=True)
     record.write_text(f"identity: {now['high']}\nadopted_from: {{identity: 00000000feedbeef}}\n")
@@ -342,7 +343,7 @@ def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(c
     assert "0 finished; 2 stages to run; 2 to train" in cli(*args, "archive=null").stdout
     job = sweep_dir / "method=sa,seed=0,task=cylinder"
     job.mkdir(parents=True)  # Hydra makes a job's dir
-    assert run_job(cfg, job, 1) == pipeline.read_result(archived)  # as read today: with its format_version
+    assert run_job(cfg, job, 1) == read_result(archived)  # as read today: with its format_version
     assert "archived in" in capsys.readouterr().out
     assert not (root / "stages").exists() and not (job / RESULT).exists()  # nothing trained, nothing written
     # a changed budget is another high-level stage: the archived result does not stand for it
@@ -386,6 +387,38 @@ def test_a_result_made_otherwise_than_planned_now_is_told_from_its_job_dir(tmp_p
     # nothing to tell: stage runs outside a store, or an experiment that no longer composes
     assert made_otherwise({"stages": {"high": str(tmp_path / "run")}} | job) is None
     assert made_otherwise(_fake_result(cfg, now) | job | {"experiment": "gone"}) is None
+
+
+def test_what_tables_found_of_an_archived_job_is_kept_until_something_it_depends_on_changes(tmp_path, monkeypatch):
+    cfg = _job_cfg(tmp_path)
+    now = {stage.name: stage.identity for stage in planned_stages(cfg)}
+    job_dir = tmp_path / "main_smoke_debug-smoke" / "method=sa,seed=0,task=cylinder"
+    job_dir.mkdir(parents=True)
+    result = _fake_result(cfg, {**now, "high": "0123456789abcdef"})  # archived: no stage run is here
+    result |= {"experiment": "main", "budget": "smoke", "overrides": ["debug=smoke"]}
+    (job_dir / RESULT).write_text(json.dumps(result))
+    memo = tmp_path / "checked.json"
+    first = [result | {"job_dir": str(job_dir)}]
+    archive.made_otherwise_all(first, memo)
+    assert first[0]["made_otherwise"].stages == ("high",)
+
+    def compose_again(result):
+        calls.append(result["job_dir"])
+        return None
+
+    calls = []
+    monkeypatch.setattr(archive, "made_otherwise", compose_again)
+    again = [result | {"job_dir": str(job_dir)}]
+    archive.made_otherwise_all(again, memo)
+    assert calls == [] and again[0]["made_otherwise"] == first[0]["made_otherwise"]  # found in the memo, alike
+    (job_dir / RESULT).write_text(json.dumps(result | {"budget": "quick"}))  # the result changed: checked again
+    archive.made_otherwise_all(again, memo)
+    assert calls == [str(job_dir)] and again[0]["made_otherwise"] is None
+    record = stages.stage_dir(tmp_path, now["high"]) / stages.IDENTITY_FILE  # a stage record appears: again
+    record.parent.mkdir(parents=True)
+    record.write_text("identity: x\n")
+    archive.made_otherwise_all(again, memo)
+    assert calls == [str(job_dir)] * 2
 
 
 @pytest.mark.slow

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from mapush.eval.curves import tail_gain
-from mapush.experiments.pipeline import RESULT
+from mapush.eval.curve_points import tail_gain
+from mapush.experiments.results import RESULT
 from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, latex, markdown, sidecar
 
 RULE = {"tail": 0.2, "max_gain": 0.03}

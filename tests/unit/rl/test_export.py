@@ -13,8 +13,7 @@ from mapush.config import load_run_config, to_plain
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.observations import local_dim
 from mapush.lowlevel.go1 import PRETRAINED_RUN, PROPRIO_DIM
-from mapush.rl.runner import ONNX_FILE, POLICY_FILE
-from mapush.rundir import shipped_run
+from mapush.rundir import ONNX_FILE, POLICY_FILE, shipped_run
 
 
 def assert_same_actions(run_dir: Path, obs_dim: int) -> None:

@@ -11,8 +11,9 @@ import torch
 from mcap.reader import make_reader
 
 from mapush.rl.retention import SCORE_KEY, SUCCESS_TAG, to_prune
-from mapush.rl.runner import ONNX_FILE, POLICY_FILE, MapushRunner, train_cfg_for
+from mapush.rl.runner import MapushRunner, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
+from mapush.rundir import ONNX_FILE, POLICY_FILE
 
 
 def names(run_dir: Path) -> list[str]:

@@ -1,11 +1,13 @@
-"""Carry a sweep's finished stages over to a newer commit whose configs name them differently but behave alike.
+"""`mapush stages rekey`: carry a sweep's finished stages over to a newer commit whose configs name them differently
+but behave alike.
 
 A stage's identity hashes its composed config, so a commit that only reorganises the config (the same numbers
 under new keys, as f56d309 did when observations and exceptions became config terms) gives every stage a new
-identity, and a sweep at that commit would train them all again. This script, run from the newer checkout:
+identity, and a sweep at that commit would train them all again. Run from the newer checkout, `rekey`:
 
-1. fingerprints every level at the old checkout and here (`tools/fingerprint.py`) and stops unless every hash
-   agrees, that is unless both commits compute bitwise-equal observations, rewards and episode ends;
+1. fingerprints every level on the mapush of the old checkout and on this one (`mapush stages fingerprint`: this
+   commit's `fingerprint.py`, run with each checkout on PYTHONPATH, so that both are hashed alike) and stops unless
+   every hash agrees, that is unless both commits compute bitwise-equal observations, rewards and episode ends;
 2. plans the sweep at both commits (`dry_run`) and pairs their stages by job and stage name;
 3. for each old stage with a run (finished, or cut after a checkpoint) whose new identity has none yet, makes
    `stages/<new>/`: a `stage.yaml` with the new identity, the config this commit composes and `adopted_from`
@@ -15,7 +17,7 @@ identity, and a sweep at that commit would train them all again. This script, ru
 
 Run it before a change that alters behaviour: the pairing trusts that only the config's form changed.
 
-    python tools/rekey_stages.py OLD_CHECKOUT MID_RUN experiment=main [more sweep overrides]
+    mapush stages rekey OLD_CHECKOUT MID_RUN experiment=main [more sweep overrides]
 """
 
 from __future__ import annotations
@@ -32,10 +34,17 @@ from mapush.experiments.stage_plan import planned_stages
 from mapush.experiments.sweep import dry_run, job_combos, sweep_overrides
 from mapush.rundir import find_runs
 
-TOOLS = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[2]
+"""The checkout (or site-packages) this mapush runs from: the newer commit."""
 PLAN = (
     "import json, sys; from mapush.experiments.sweep import dry_run; print('ROWS', json.dumps(dry_run(sys.argv[1:])))"
 )
+FINGERPRINT = Path(__file__).with_name("fingerprint.py")
+RUN_FINGERPRINT = "import json, runpy, sys; print(json.dumps(runpy.run_path(sys.argv[1])['fingerprint'](sys.argv[2])))"
+
+
+class CheckoutFailed(Exception):
+    """A command at a checkout exited nonzero; the message holds the end of its stderr."""
 
 
 def at_checkout(checkout: Path, args: list[str]) -> str:
@@ -43,8 +52,15 @@ def at_checkout(checkout: Path, args: list[str]) -> str:
     env = {**os.environ, "PYTHONPATH": str(checkout)}
     done = subprocess.run([sys.executable, *args], cwd=checkout, env=env, capture_output=True, text=True)
     if done.returncode:
-        sys.exit(f"{checkout}: {' '.join(args)} failed:\n{done.stderr[-2000:]}")
+        raise CheckoutFailed(f"{checkout}: {' '.join(args)} failed:\n{done.stderr[-2000:]}")
     return done.stdout
+
+
+def fingerprint_at(checkout: Path, mid_run: str) -> dict[str, str]:
+    """The fingerprints of the mapush of `checkout`, hashed by this commit's `fingerprint.py` (an older checkout's
+    own may hash other rollouts, or be missing)."""
+    out = at_checkout(checkout, ["-c", RUN_FINGERPRINT, str(FINGERPRINT), mid_run])
+    return json.loads(out.splitlines()[-1])
 
 
 def commit_of(checkout: Path) -> str:
@@ -52,10 +68,10 @@ def commit_of(checkout: Path) -> str:
                           check=True).stdout.strip()  # fmt: skip
 
 
-def main(old: Path, mid_run: str, overrides: list[str]) -> int:
-    here = TOOLS.parent
-    prints = {name: json.loads(at_checkout(path, [str(TOOLS / "fingerprint.py"), mid_run]).splitlines()[-1])
-              for name, path in (("old", old), ("new", here))}  # fmt: skip
+def rekey(old: Path, mid_run: str, overrides: list[str]) -> int:
+    """Adopt the stages `old` trained for the sweep of `overrides` under this commit's identities; 1 (nothing
+    adopted) when the fingerprints differ, else 0."""
+    prints = {name: fingerprint_at(path, mid_run) for name, path in (("old", old), ("new", HERE))}
     if prints["old"] != prints["new"]:
         print(f"fingerprints differ, nothing adopted:\n  old {prints['old']}\n  new {prints['new']}")
         return 1
@@ -89,9 +105,3 @@ def main(old: Path, mid_run: str, overrides: list[str]) -> int:
         adopted += 1
     print(f"{adopted} stages adopted from {old_commit} (fingerprints equal: {prints['new']})")
     return 0
-
-
-if __name__ == "__main__":
-    if len(sys.argv) < 4:
-        sys.exit(__doc__.rsplit("\n\n", 1)[1])
-    sys.exit(main(Path(sys.argv[1]).resolve(), str(Path(sys.argv[2]).resolve()), sys.argv[3:]))

@@ -1,18 +1,14 @@
-"""tools/push_progress.py's watcher: where a push leaves the object and how long robots stand ahead of it, checked
-on hand-placed states."""
+"""`mapush probe`'s watchers (`mapush.eval.probes`), checked on hand-placed states: where a push leaves the object
+and how long robots stand ahead of it (progress), and how hard the commands drive the robots (commands)."""
 
 from __future__ import annotations
 
-import importlib.util
 from types import SimpleNamespace
 
 import pytest
 import torch
-from paths import REPO
 
-SPEC = importlib.util.spec_from_file_location("push_progress", REPO / "tools" / "push_progress.py")
-push_progress = importlib.util.module_from_spec(SPEC)
-SPEC.loader.exec_module(push_progress)
+from mapush.eval.probes import CommandWatch, PushWatch
 
 
 def _env(object_xy, robot_xy, success):
@@ -25,7 +21,7 @@ def _env(object_xy, robot_xy, success):
 
 
 def test_a_push_that_drives_the_object_away_is_told_from_one_that_arrives():
-    watch = push_progress.PushWatch()
+    watch = PushWatch()
     # step 1: both objects at the origin, 3 m from the subgoal; env 0's robots behind it (x < 0), env 1's one
     # behind and one ahead (x > 0, the subgoal's side)
     watch.capture(_env([[0.0, 0.0], [0.0, 0.0]], [[[-1.0, 0.5], [-1.0, -0.5]], [[-1.0, 0.0], [1.0, 0.0]]],
@@ -42,3 +38,16 @@ def test_a_push_that_drives_the_object_away_is_told_from_one_that_arrives():
     assert watch.succeeded.tolist() == [True, False]
     # env 0: its robots stay behind its object over its 2 steps; env 1: 1 + 2 + 2 robots ahead over 3 steps of 2
     assert (watch.ahead_steps / watch.robot_steps).tolist() == pytest.approx([0.0, 5 / 6])
+
+
+def test_command_figures_count_only_first_episodes_as_shares_of_the_action_scale():
+    watch = CommandWatch([1.0, 0.5, 2.0])
+    env = SimpleNamespace(num_envs=2, num_agents=1)
+    # step 1: env 0 at full scale on vx, env 1 at half scale on every axis; env 1's episode ends
+    watch.capture(env, torch.tensor([[[1.0, 0.0, 0.0]], [[0.5, 0.25, 1.0]]]), None, None, torch.tensor([False, True]))
+    # step 2: env 0 turns back to zero; env 1 is in its second episode (not counted)
+    watch.capture(env, torch.tensor([[[0.0, 0.0, 0.0]], [[1.0, 0.5, 2.0]]]), None, None, torch.tensor([False, False]))
+    figures = watch.figures()  # over 3 robot-steps: env 0's two, env 1's first
+    assert figures["mean_abs"] == pytest.approx([1.5 / 3, 0.5 / 3, 0.5 / 3])
+    assert figures["saturated"] == pytest.approx([1 / 3, 0.0, 0.0])
+    assert figures["mean_change"] == pytest.approx([1 / 3, 0.0, 0.0])  # env 0's step from 1 back to 0 on vx

@@ -1,33 +1,31 @@
-"""Fingerprints of every level's numbers, to check that a refactor changed no behaviour.
+"""`mapush stages fingerprint`: every level's numbers hashed, to check that a refactor changed no behaviour.
 
 A seeded 16-env rollout (60 steps of seeded random actions) of each registered level on the cuboid, and of the
 mid level on every other task and with one robot (the SA baseline), hashed over observations, rewards, episode
-flags and the outcomes of the episodes that end (`info["episode_end"]`). Run it on two commits
-(e.g. `git worktree add /tmp/old <commit>`, then
-`PYTHONPATH=/tmp/old python tools/fingerprint.py MID_RUN` from /tmp/old) and compare the JSON lines; equal hashes
-mean bitwise equal numbers. MID_RUN is a mid-level cuboid run dir (e.g. `mapush train debug=smoke`) for the
-high level's frozen mid level.
+flags and the outcomes of the episodes that end (`info["episode_end"]`). Run it at two commits and compare the
+JSON lines; equal hashes mean bitwise-equal numbers. `mapush stages rekey` does that before it carries a sweep's
+stages over to a commit whose configs name them differently (`rekey.py`): it runs this file on the mapush of
+either checkout, so this file also runs on commits before the level factory had its own module. MID_RUN is a
+mid-level cuboid run dir (e.g. `mapush train debug=smoke`) for the high level's frozen mid level.
 
-    python tools/fingerprint.py MID_RUN
+    mapush stages fingerprint MID_RUN
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
-import sys
-from pathlib import Path
+import importlib
+import importlib.util
 
 import torch
 
-import mapush
 from mapush.config import compose_config, to_plain
 
-if (Path(mapush.__file__).parent / "levels.py").is_file():
+if importlib.util.find_spec("mapush.levels") is not None:
     from mapush.levels import LEVELS, make_env
-else:  # commits before the level factory had its own module (an editable install would lend a newer one)
-    from mapush.train import LEVELS, make_env
-
+else:  # an older commit's mapush (`rekey` runs this file on it): the factory lived in mapush.train
+    _factory = importlib.import_module("mapush.train")
+    LEVELS, make_env = _factory.LEVELS, _factory.make_env
 
 MID_VARIANTS = {
     "mid/tblock": ["task=tblock"],
@@ -37,9 +35,19 @@ MID_VARIANTS = {
 """Rollouts beside each level's own: {name: overrides of the mid level}."""
 
 
+def _frozen_mid(level: str) -> bool:
+    """Whether the level drives its robots through a frozen mid level (the registry says; before it did, the
+    high level was the one)."""
+    return getattr(LEVELS[level], "frozen_mid", level in BEFORE_THE_REGISTRY_SAID)
+
+
+BEFORE_THE_REGISTRY_SAID = ("high",)
+"""The levels with a frozen mid level in commits whose registry did not record it."""
+
+
 def fingerprint(mid_run: str, envs: int = 16, steps: int = 60) -> dict[str, str]:
     """{rollout: the first 16 hex digits of the sha256 of its numbers}."""
-    rollouts = {level: [f"level={level}"] + ([f"mid={mid_run}"] if level == "high" else []) for level in LEVELS}
+    rollouts = {level: [f"level={level}"] + ([f"mid={mid_run}"] if _frozen_mid(level) else []) for level in LEVELS}
     rollouts |= {name: ["level=mid", *overrides] for name, overrides in MID_VARIANTS.items()}
     out = {}
     for name, overrides in sorted(rollouts.items()):
@@ -57,7 +65,3 @@ def fingerprint(mid_run: str, envs: int = 16, steps: int = 60) -> dict[str, str]
                 digest.update(tensor.detach().cpu().numpy().tobytes())
         out[name] = digest.hexdigest()[:16]
     return out
-
-
-if __name__ == "__main__":
-    print(json.dumps(fingerprint(sys.argv[1])))

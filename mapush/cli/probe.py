@@ -1,0 +1,91 @@
+"""`mapush probe`: what a trained level does inside its evaluation's episodes (commands, falls, progress), and how
+long the paths are that the high level is evaluated on (paths). The figures come from `mapush.eval.probes`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from mapush.cli.app import PASS_THROUGH, app
+from mapush.errors import BadInput
+
+probe_app = typer.Typer(
+    help="Look inside a trained level's evaluation: its commands, where its robots fall, where its pushes go; and "
+    "the lengths of the evaluation's paths.",
+    no_args_is_help=True,
+)
+app.add_typer(probe_app, name="probe")
+
+TARGET = "A run dir (its latest checkpoint) or a model_<it>.pt file."
+
+
+def _check_episodes(episodes: int) -> None:
+    if episodes < 1:
+        raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
+
+
+@probe_app.command(context_settings=PASS_THROUGH)
+def commands(
+    ctx: typer.Context,
+    target: Path = typer.Argument(..., help=f"A mid level: {TARGET}"),
+    episodes: int = typer.Option(64, "--episodes", help="Pushes, one per env (seed 0)."),
+) -> None:
+    """How hard a mid level drives its robots: its velocity commands (shares of level.action_scale) per axis, over
+    each env's first push, as trained or with overrides (e.g. lowlevel=go1): mean magnitude, share saturated
+    (>= 0.95), mean change per step."""
+    _check_episodes(episodes)
+    from mapush.eval.probes import probe_commands
+
+    probe_commands(target, episodes, list(ctx.args))
+
+
+@probe_app.command(context_settings=PASS_THROUGH)
+def falls(
+    ctx: typer.Context,
+    target: Path = typer.Argument(..., help=f"A high level: {TARGET}"),
+    episodes: int = typer.Option(50, "--episodes", help="Episodes, one per env (seed 0)."),
+) -> None:
+    """Where a hierarchy's Go1s fall (lowlevel=go1, then the overrides): the evaluation's exception shares, and at
+    each env's first fall the quartiles of the fallen robot's distances to the object, its nearest teammate and the
+    nearest obstacle, and how often its command was at full scale."""
+    _check_episodes(episodes)
+    from mapush.eval.probes import probe_falls
+
+    probe_falls(target, episodes, list(ctx.args))
+
+
+@probe_app.command()
+def progress(
+    target: Path = typer.Argument(..., help=f"A mid level: {TARGET}"),
+    episodes: int = typer.Option(50, "--episodes", help="Pushes, one per env (seed 0)."),
+    compare: list[str] = typer.Option(
+        [],
+        "--compare",
+        help="An override (e.g. lowlevel=go1) to evaluate with besides as trained; repeat it for several, "
+        "all applied together.",
+    ),
+) -> None:
+    """Where a mid level's pushes take the object, and on which side of it the robots stand: for successes and
+    failures apart, the distance to the subgoal at the start and the end, the share that ended farther than it
+    started, and the share of robot-steps ahead of the object."""
+    _check_episodes(episodes)
+    from mapush.eval.probes import probe_progress
+
+    probe_progress(target, episodes, compare)
+
+
+@probe_app.command(context_settings=PASS_THROUGH)
+def paths(
+    ctx: typer.Context,
+    tasks: str = typer.Option("cuboid,tblock,cylinder", "--tasks", help="Comma-separated objects (conf/task/)."),
+    episodes: int = typer.Option(50, "--episodes", help="Maps, one per env."),
+    seed: int = typer.Option(0, "--seed", help="The evaluation seed that draws the maps."),
+) -> None:
+    """How far the hierarchy has to push: the lengths of the paths the high level is evaluated on, per object (the
+    maps `mapush eval` draws, planned as level.planner.* says; overrides such as level.planner.name=RRTstar follow,
+    after `--` or not)."""
+    _check_episodes(episodes)
+    from mapush.eval.probes import path_lengths
+
+    path_lengths([t for t in tasks.split(",") if t], episodes, seed, list(ctx.args))

@@ -1,0 +1,23 @@
+"""Reading a learning curve (points of env-steps and evaluated success, `curves.learning_curve`): when it first
+reaches a rate, and what its last stretch added. Plain arithmetic, so a table reads curves without the
+simulator."""
+
+from __future__ import annotations
+
+
+def first_reaching(points: list[dict], threshold: float) -> dict | None:
+    """The first point whose success rate is at least `threshold` (its keys but the rates), or None."""
+    for point in points:
+        if point["success_rate"] >= threshold - 1e-6:  # rates are float32 means: 0.6 may be 0.59999996
+            return {k: v for k, v in point.items() if not k.startswith(("success", "completion"))}
+    return None
+
+
+def tail_gain(points: list[dict], tail: float) -> float | None:
+    """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus the rate of the
+    earlier point nearest to (1 - tail) of the final env-steps (the earlier of two as near); None with one point."""
+    if len(points) < 2:
+        return None
+    cut = (1 - tail) * points[-1]["env_steps"]
+    start = min(points[:-1], key=lambda p: (abs(p["env_steps"] - cut), p["env_steps"]))
+    return points[-1]["success_rate"] - start["success_rate"]

@@ -1,0 +1,222 @@
+"""`mapush probe`: what a trained level does inside the episodes `mapush eval` scores, beyond eval.json's figures.
+
+Three probes run `mapush eval`'s first-episode rollout (one episode in each of N envs, seed 0) of a checkpoint, with
+its run's config and the given overrides, and watch every step of each env's first episode (`watched_rollout`):
+
+- `commands`: a mid level's velocity commands as shares of `level.action_scale` (the policy's clipped actions), per
+  axis (vx, vy, yaw rate): mean magnitude, the share of robot-steps at or beyond 0.95 (saturated), the mean change
+  per step (`CommandWatch`). Used to compare seeds whose hierarchies transfer to Go1s differently.
+- `falls`: a hierarchy on Go1s (`lowlevel=go1`); at the first step where a robot tilts beyond the high level's
+  `robot_tilt` limit, its distances (centre to centre) to the object, to its nearest teammate and to the nearest
+  obstacle block, and whether its command was at the mid level's full scale on every axis (`FallWatch`). Tells falls
+  while pushing or crowding from falls at walls or blocks.
+- `progress`: a mid level's pushes, as trained and with other overrides: the object's distance to its subgoal at the
+  start and at the end, and the robot-steps spent ahead of the object (on the subgoal's side of the line through its
+  centre, square to the push) rather than behind it, where a pusher stands (`PushWatch`).
+
+A fourth, `paths`, rolls nothing out: the lengths of the reference paths the high level is evaluated on, per object
+(`path_lengths`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
+from mapush.eval.rollout import run_episodes
+from mapush.levels import checked, make_env
+from mapush.planning.paths import length as path_length
+from mapush.rundir import resolve_checkpoint, shipped_run
+
+SATURATED = 0.95
+"""A command at or beyond this share of the action scale counts as saturated (`commands`)."""
+FULL_SCALE = 0.99
+"""A command at or beyond this share of the mid level's action scale on every axis is at full scale (`falls`)."""
+
+
+class Watch:
+    """A recorder that `mapush.eval.rollout.run_episodes` calls every step (`capture`); it needs no `watch` call."""
+
+    def watch(self, *args, **kwargs) -> None:
+        pass
+
+    def capture(self, env, commands, reward, parts, done) -> None:
+        raise NotImplementedError
+
+
+def watched_rollout(target: Path, overrides: list[str], episodes: int, make_watch: Callable[[dict], Watch]):
+    """`mapush eval`'s first-episode rollout (`episodes` envs, seed 0) of `target` (a run dir: its latest
+    checkpoint; or a model_<it>.pt) with its run's config and `overrides`, watched by `make_watch(cfg)`:
+    (outcomes, the watcher)."""
+    run_dir, checkpoint = resolve_checkpoint(target)
+    cfg = to_plain(apply_overrides(load_run_config(run_dir), overrides))
+    cfg["log"]["eval_episodes"] = 0  # no episode file: the watcher is the record
+    watch = make_watch(cfg)
+    return run_episodes(cfg, checkpoint, episodes, 0, recorders=(watch,)), watch
+
+
+class CommandWatch(Watch):
+    """Each env's first-episode commands, as shares of the action scale."""
+
+    def __init__(self, action_scale: list[float]):
+        self.scale = torch.tensor(action_scale)
+        self.ended = self.last = None
+        self.steps = torch.zeros(())
+        self.magnitude, self.saturated, self.change = torch.zeros(3), torch.zeros(3), torch.zeros(3)
+
+    def capture(self, env, commands, reward, parts, done) -> None:
+        share = commands / self.scale  # (E, A, 3) in [-1, 1]
+        if self.ended is None:
+            self.ended, self.last = torch.zeros(env.num_envs, dtype=torch.bool), share.clone()
+        live = (~self.ended).float()[:, None, None]  # (E, 1, 1): robot-steps of first episodes only
+        self.steps += live.sum() * env.num_agents
+        self.magnitude += (share.abs() * live).sum((0, 1))
+        self.saturated += ((share.abs() >= SATURATED) * live).sum((0, 1))
+        self.change += ((share - self.last).abs() * live).sum((0, 1))
+        self.last, self.ended = share.clone(), self.ended | done
+
+    def figures(self) -> dict[str, list[float]]:
+        totals = {"mean_abs": self.magnitude, "saturated": self.saturated, "mean_change": self.change}
+        return {key: (total / self.steps).tolist() for key, total in totals.items()}
+
+
+class FallWatch(Watch):
+    """Each env's first fall, and how often any robot's command is at full scale."""
+
+    def __init__(self, max_tilt: float):
+        self.max_tilt, self.falls, self.seen, self.ended = max_tilt, [], None, None
+        self.robot_steps, self.saturated_steps = 0, 0  # over every robot and step of the first episodes
+
+    def capture(self, env, commands, reward, parts, done) -> None:
+        s = env.state
+        if self.seen is None:
+            self.seen = torch.zeros(env.num_envs, dtype=torch.bool)
+            self.ended = torch.zeros(env.num_envs, dtype=torch.bool)
+        fell = (s.robot_tilt > self.max_tilt).any(1) & ~self.seen & ~self.ended
+        saturated = (commands.abs() >= FULL_SCALE * env.mid.action_scale).all(-1)  # (E, A)
+        self.robot_steps += int((~self.ended).sum()) * env.num_agents
+        self.saturated_steps += int(saturated[~self.ended].sum())
+        self.seen |= fell
+        self.ended |= done  # only first episodes count, as in the evaluation
+        for e in fell.nonzero().flatten().tolist():
+            a = int(s.robot_tilt[e].argmax())
+            teammates = s.robot_distance[e, a][torch.arange(env.num_agents) != a]
+            blocks = (env.obstacles[e, :, :2] - s.robot_xy[e, a]).norm(dim=1)
+            self.falls.append(
+                {
+                    "time_s": float(env.episode_time_s[e]),
+                    "object_m": float((s.robot_xy[e, a] - s.object_xy[e]).norm()),
+                    "teammate_m": float(teammates.min()) if len(teammates) else float("nan"),
+                    "obstacle_m": float(blocks.min()) if len(blocks) else float("nan"),
+                    "saturated_command": bool(saturated[e, a]),
+                }
+            )
+
+
+class PushWatch(Watch):
+    """Each env's first push: the object's start and end distance to its subgoal, the robot-steps ahead of it."""
+
+    def __init__(self):
+        self.start = self.last = self.ended = self.succeeded = None
+        self.ahead_steps = self.robot_steps = None
+
+    def capture(self, env, commands, reward, parts, done) -> None:
+        s = env.state
+        distance = torch.linalg.vector_norm(s.object_xy - env.subgoal_xy, dim=-1)
+        if self.start is None:
+            self.start, self.last = distance.clone(), distance.clone()
+            self.ended = torch.zeros(env.num_envs, dtype=torch.bool)
+            self.succeeded = torch.zeros(env.num_envs, dtype=torch.bool)
+            self.ahead_steps = torch.zeros(env.num_envs)
+            self.robot_steps = torch.zeros(env.num_envs)
+        live = ~self.ended
+        push = env.subgoal_xy - s.object_xy  # (E, 2)
+        ahead = ((s.robot_xy - s.object_xy.unsqueeze(1)) * push.unsqueeze(1)).sum(-1) > 0  # (E, A)
+        self.ahead_steps += (ahead.sum(1) * live).float()
+        self.robot_steps += live.float() * env.num_agents
+        self.last = torch.where(live, distance, self.last)
+        self.succeeded |= env.success & live
+        self.ended |= done
+
+
+def probe_commands(target: Path, episodes: int, overrides: list[str]) -> None:
+    """Print a mid level's command statistics over `episodes` pushes."""
+    out, watch = watched_rollout(
+        target, ["sim.nthread=1", *overrides], episodes, lambda cfg: CommandWatch(cfg["level"]["action_scale"])
+    )
+    print(f"{target}: S.R. {out['success_rate']:.2f} over {episodes} pushes")
+    for key, values in watch.figures().items():
+        print(f"  {key:12s} (vx, vy, yaw rate): " + ", ".join(f"{v:.3f}" for v in values))
+
+
+def probe_falls(target: Path, episodes: int, overrides: list[str]) -> None:
+    """Print where a hierarchy's Go1s fall over `episodes` episodes: quartiles of the distances at each first fall."""
+    out, watch = watched_rollout(
+        target,
+        ["lowlevel=go1", *overrides],
+        episodes,
+        lambda cfg: FallWatch(float(cfg["level"]["exceptions"]["robot_tilt"]["params"]["max_rad"])),
+    )
+    print(f"success {out['success_rate']:.2f}; episodes ended by: "
+          + ", ".join(f"{k} {v:.2f}" for k, v in out["exceptions"].items() if v))  # fmt: skip
+    overall = watch.saturated_steps / max(watch.robot_steps, 1)
+    if not watch.falls:
+        print(f"0 envs with a fall; commands at full scale on all three axes: {overall:.2f} of all robot-steps")
+        return
+    print(f"{len(watch.falls)} envs with a fall; quartiles (25 / 50 / 75 %):")
+    for key in ("time_s", "object_m", "teammate_m", "obstacle_m"):
+        values = np.array([f[key] for f in watch.falls])
+        print(f"  {key:11s} " + " / ".join(f"{q:.2f}" for q in np.nanpercentile(values, [25, 50, 75])))
+    saturated = np.mean([f["saturated_command"] for f in watch.falls])
+    print(f"  commands at full scale on all three axes: {saturated:.2f} of the falls, {overall:.2f} of all robot-steps")
+
+
+def probe_progress(target: Path, episodes: int, compare: list[str]) -> None:
+    """Print a mid level's push progress as trained and, when `compare` has overrides, with them."""
+    for overrides in [[], compare] if compare else [[]]:
+        out, watch = watched_rollout(target, ["sim.nthread=1", *overrides], episodes, lambda cfg: PushWatch())
+        report_progress(" ".join(overrides) or "as trained", out, watch)
+
+
+def report_progress(label: str, out: dict, watch: PushWatch) -> None:
+    """Print, for successes and failures apart, the mean start and end distance, the share of pushes that ended
+    farther from the subgoal than they started and the share of robot-steps ahead of the object."""
+    success = watch.succeeded
+    print(f"{label}: S.R. {out['success_rate']:.2f}")
+    ahead = watch.ahead_steps / watch.robot_steps.clamp(min=1)
+    for name, rows in (("successes", success), ("failures", ~success)):
+        if rows.any():
+            farther = (watch.last[rows] > watch.start[rows]).float().mean()
+            print(f"  {name:9s} {int(rows.sum()):3d}: distance to the subgoal {watch.start[rows].mean():.2f} -> "
+                  f"{watch.last[rows].mean():.2f} m; ended farther than it started {farther:.2f}; "
+                  f"robot-steps ahead of the object {ahead[rows].mean():.2f}")  # fmt: skip
+
+
+def path_lengths(tasks: list[str], episodes: int, seed: int, overrides: list[str]) -> None:
+    """Print the lengths of the paths `mapush eval` plans (one env per trial, `seed`) for each task's object, on
+    the maps the shipped mid level of that task is evaluated on, against the straight distance."""
+    print(f"{'task':<20} {'mean':>6} {'min':>5} {'max':>5} {'straight':>8} {'path/straight':>14}   (path lengths, m)")
+    for task in tasks:
+        cfg = compose_config(
+            [
+                "level=high",
+                f"mid={shipped_run(f'{task}/mid')}",  # the shipped mid level: the map needs one
+                f"task={task}",
+                f"num_envs={episodes}",
+                f"seed={seed}",
+                "sim.nthread=1",
+                *overrides,
+            ]
+        )
+        env = make_env(checked(cfg), evaluation=True)  # as `mapush eval` builds it
+        path = env.path  # (E, points, 2), start at the object, end at the target
+        length = path_length(path)
+        straight = (path[:, -1] - path[:, 0]).norm(dim=-1)
+        print(
+            f"{task:<20} {length.mean():6.1f} {length.min():5.1f} {length.max():5.1f} {straight.mean():8.1f}"
+            f" {(length / straight).mean():14.2f}"
+        )

@@ -1,0 +1,43 @@
+"""`mapush probe` through the real CLI: a run that is not there is one line and exit 2, and each probe prints its
+figures for the smoke run (slow: each rolls out, or plans, a few episodes)."""
+
+from __future__ import annotations
+
+import pytest
+from stand_ins import assert_bad_input
+
+
+@pytest.mark.parametrize("probe", ["commands", "falls", "progress"])
+def test_a_probe_of_a_missing_run_names_it(cli, tmp_path, probe):
+    missing = tmp_path / "nowhere" / "model_5.pt"
+    assert_bad_input(cli("probe", probe, missing), str(missing), "valid: a run dir")
+
+
+def test_a_probe_of_no_episodes_is_refused(cli):
+    assert_bad_input(cli("probe", "paths", "--episodes", "0"), "--episodes 0", "valid: 1 or more")
+
+
+@pytest.mark.slow
+def test_the_command_probe_prints_each_axis_figure(cli, smoke_run):
+    proc = cli("probe", "commands", smoke_run, "--episodes", "2")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.strip().splitlines()
+    assert lines[-4] == f"{smoke_run}: S.R. {lines[-4].split('S.R. ')[1]}" and "over 2 pushes" in lines[-4]
+    assert [line.split()[0] for line in lines[-3:]] == ["mean_abs", "saturated", "mean_change"]
+
+
+@pytest.mark.slow
+def test_the_progress_probe_compares_with_the_overrides(cli, smoke_run):
+    proc = cli("probe", "progress", smoke_run, "--episodes", "2", "--compare", "sim.nthread=1")
+    assert proc.returncode == 0, proc.stderr
+    labels = [line.split(":")[0] for line in proc.stdout.splitlines() if not line.startswith(" ")]
+    assert labels[-2:] == ["as trained", "sim.nthread=1"]
+
+
+@pytest.mark.slow
+def test_the_path_probe_prints_a_row_per_task(cli):
+    proc = cli("probe", "paths", "--tasks", "cuboid", "--episodes", "2", "--", "level.planner.max_checks=20000")
+    assert proc.returncode == 0, proc.stderr
+    header, row = proc.stdout.strip().splitlines()[-2:]
+    assert header.split()[:2] == ["task", "mean"] and row.split()[0] == "cuboid"
+    assert float(row.split()[-1]) >= 1.0  # a path is no shorter than the straight line
