@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime
 import importlib.util
 import os
+import re
 import subprocess
 from pathlib import Path
 
@@ -127,6 +128,11 @@ def _run_dir_override(override: str) -> str:
 def sim_threads(cfg: DictConfig | dict) -> int:
     """The MuJoCo threads a config steps its batch with: `sim.nthread`, where 0 means every core of this machine."""
     return int(cfg["sim"]["nthread"]) or os.cpu_count() or 1
+
+
+def overrides_name(overrides: list[str]) -> str:
+    """A file-name tag for an evaluation's overrides (`task.num_agents=3` -> `task.num_agents-3`); '' for none."""
+    return re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(overrides)).strip("-")
 
 
 def env_steps_per_iteration(cfg: dict) -> int:

@@ -238,8 +238,6 @@ def compare(
     out: Path = typer.Option(Path("results/compare"), "--out", help="Writes OUT.md and OUT.json."),
 ) -> None:
     """Evaluate runs as trained and with overrides (e.g. lowlevel=go1: the sim-to-sim check) into one table."""
-    from mapush.report.compare import compare_run, write_comparison
-
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     seed_list = number_list(seeds, "--seeds") if seeds else None
@@ -247,5 +245,11 @@ def compare(
     runs = [Path(t) for t in targets if "=" not in t]
     if not runs:
         raise BadInput("mapush compare needs run dirs; valid: mapush compare RUN_DIR... key=value...")
+    from mapush.rundir import resolve_checkpoint
+
+    for run in runs:  # a missing run is told before the simulator and PyTorch load
+        resolve_checkpoint(run)
+    from mapush.report.compare import compare_run, write_comparison
+
     rows = [compare_run(run, episodes, seed_list, overrides) for run in runs]
     print(write_comparison(rows, overrides, out), end="")

@@ -20,9 +20,14 @@ app.add_typer(probe_app, name="probe")
 TARGET = "A run dir (its latest checkpoint) or a model_<it>.pt file."
 
 
-def _check_episodes(episodes: int) -> None:
+def _check_episodes(episodes: int, target: Path | None = None) -> None:
+    """Bad input told before the simulator and PyTorch load: a count below 1, a missing run or checkpoint."""
     if episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
+    if target is not None:
+        from mapush.rundir import resolve_checkpoint
+
+        resolve_checkpoint(target)
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -34,7 +39,7 @@ def commands(
     """How hard a mid level drives its robots: its velocity commands (shares of level.action_scale) per axis, over
     each env's first push, as trained or with overrides (e.g. lowlevel=go1): mean magnitude, share saturated
     (>= 0.95), mean change per step."""
-    _check_episodes(episodes)
+    _check_episodes(episodes, target)
     from mapush.eval.probes import probe_commands
 
     probe_commands(target, episodes, list(ctx.args))
@@ -49,7 +54,7 @@ def falls(
     """Where a hierarchy's Go1s fall (lowlevel=go1, then the overrides): the evaluation's exception shares, and at
     each env's first fall the quartiles of the fallen robot's distances to the object, its nearest teammate and the
     nearest obstacle, and how often its command was at full scale."""
-    _check_episodes(episodes)
+    _check_episodes(episodes, target)
     from mapush.eval.probes import probe_falls
 
     probe_falls(target, episodes, list(ctx.args))
@@ -69,7 +74,7 @@ def progress(
     """Where a mid level's pushes take the object, and on which side of it the robots stand: for successes and
     failures apart, the distance to the subgoal at the start and the end, the share that ended farther than it
     started, and the share of robot-steps ahead of the object."""
-    _check_episodes(episodes)
+    _check_episodes(episodes, target)
     from mapush.eval.probes import probe_progress
 
     probe_progress(target, episodes, compare)

@@ -97,13 +97,16 @@ def evaluate(
         from mapush.viz.preflight import require_offscreen_gl
 
         require_offscreen_gl()
-    from mapush.eval.rollout import evaluate as run_eval
-
     seed_list = number_list(seeds, "--seeds") if seeds else None
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     if name and not name.replace("-", "").replace("_", "").isalnum():
         raise BadInput(f"--name {name!r} is not a plain name; valid: letters, digits, '-' and '_'")
+    from mapush.rundir import resolve_checkpoint
+
+    resolve_checkpoint(target)  # a missing run is told before the simulator and PyTorch load
+    from mapush.eval.rollout import evaluate as run_eval
+
     out = run_eval(target, episodes, seed_list, list(ctx.args), live=live, name=name, video=video)
     result = json.loads(out.read_text())
     runs = f"{result['episodes']} episodes x seeds {result['seeds']}"

@@ -35,7 +35,11 @@ import torch
 
 from mapush.envs.base import EnvCore
 from mapush.envs.low_disturbances import Disturbances
-from mapush.envs.low_scene import (
+from mapush.errors import BadInput
+from mapush.lowlevel import backend_name
+from mapush.lowlevel import go1_constants as go1
+from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
+from mapush.lowlevel.go1_training_scene import (
     LOAD_BODIES,
     LOAD_GEOM_FRICTION,
     ROBOT_NQ,
@@ -44,10 +48,6 @@ from mapush.envs.low_scene import (
     locomotion_model,
     teammate_fractions,
 )
-from mapush.errors import BadInput
-from mapush.lowlevel import backend_name
-from mapush.lowlevel import go1_constants as go1
-from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
 from mapush.sim.batch import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 

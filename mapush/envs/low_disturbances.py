@@ -1,7 +1,7 @@
 """What disturbs the Go1 of the locomotion env (`level=low`), beside its commands: a random push every
 `push_interval_s`, a free load ahead of it along its first command, teammates beside it that lean into it. The
 env's own randomization (friction, mass) and its step are in `low.py`; the scene with the loads and teammates in
-`low_scene.py`."""
+`mapush/lowlevel/go1_training_scene.py`."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import math
 import numpy as np
 import torch
 
-from mapush.envs.low_scene import LOAD_BODIES, MATE_PARKED_XY, MATE_PREFIX, PARKED_XY, teammate_count
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import Go1, rotate_into_world
+from mapush.lowlevel.go1_training_scene import LOAD_BODIES, MATE_PARKED_XY, MATE_PREFIX, PARKED_XY, teammate_count
 from mapush.planning.geometry import rotate
 
 

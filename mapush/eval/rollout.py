@@ -7,7 +7,6 @@ by the timeout (paper IV-B-1). Seeds give the mean +- std.
 
 from __future__ import annotations
 
-import re
 import shutil
 import sys
 from pathlib import Path
@@ -16,7 +15,7 @@ import numpy as np
 import torch
 
 from mapush.atomic import locked, remove_leftovers, write_json
-from mapush.config import apply_overrides, load_run_config, to_plain
+from mapush.config import apply_overrides, load_run_config, overrides_name, to_plain
 from mapush.envs.base import exception_names
 from mapush.eval.numerics import machine_record
 from mapush.levels import build_for_eval, level_of, scene_layout
@@ -179,11 +178,6 @@ def _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, vide
 
 def _suffix(name: str) -> str:
     return f"_{name}" if name else ""
-
-
-def overrides_name(overrides: list[str]) -> str:
-    """A file-name tag for an evaluation's overrides (`task.num_agents=3` -> `task.num_agents-3`); '' for none."""
-    return re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(overrides)).strip("-")
 
 
 def output_dir(run_dir: Path) -> Path:

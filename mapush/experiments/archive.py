@@ -21,12 +21,13 @@ from pathlib import Path
 
 import hydra
 import omegaconf
+from omegaconf import DictConfig
 
 from mapush.atomic import write_json, write_text
 from mapush.config import compose_config
 from mapush.errors import BadInput
 from mapush.experiments.results import RESULT, SUPERSEDED, every_stage_override, read_result, recorded_stage_seconds
-from mapush.experiments.stage_plan import planned_stages
+from mapush.experiments.stage_plan import PlannedStage, planned_stages
 from mapush.experiments.stages import IDENTITY_FILE, STORE, identity_of, stage_dir, stage_paths, stands_for, store_root
 from mapush.experiments.staleness import Change, result_changes
 
@@ -105,6 +106,18 @@ def load_results(roots: list[Path]) -> list[dict]:
             if key not in chosen or str(result.get("finished", "")) > str(chosen[key].get("finished", "")):
                 chosen[key] = result
     return [chosen[key] for key in sorted(chosen)]
+
+
+def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:
+    """The job's `result.json` in the archive (`cfg.archive`, `mapush archive`), if it is there and finished as the
+    experiment plans the job now (`planned`): such a job is done, though its runs are on another machine or gone."""
+    if not cfg.get("archive"):
+        return None
+    archive = Path(cfg.archive)
+    path = archive / Path(job_dir).parent.name / Path(job_dir).name / RESULT
+    if not path.is_file():
+        return None
+    return None if result_changes(read_result(path), cfg, planned, archive) else path
 
 
 def made_otherwise_all(results: list[dict], memo: Path | None = None) -> None:

@@ -31,9 +31,9 @@ from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
+from mapush.experiments.archive import archived_result
 from mapush.experiments.results import RESULT, SUPERSEDED, read_result, recorded_stage_seconds, write_result
 from mapush.experiments.stage_plan import (
-    PlannedStage,
     applies,
     budget_of,
     eval_overrides,
@@ -202,18 +202,6 @@ def _with_stage_curves(result: dict, cfg: DictConfig, path: Path) -> dict:
     result["stage_curves"] = curves
     result["eval_wall_s"] = round(float(result.get("eval_wall_s", 0.0)) + time.perf_counter() - started, 1)
     return write_result(path, result)
-
-
-def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:
-    """The job's `result.json` in the archive (`cfg.archive`, `mapush archive`), if it is there and finished as the
-    experiment plans the job now (`planned`): such a job is done, though its runs are on another machine or gone."""
-    if not cfg.get("archive"):
-        return None
-    archive = Path(cfg.archive)
-    path = archive / Path(job_dir).parent.name / Path(job_dir).name / RESULT
-    if not path.is_file():
-        return None
-    return None if result_changes(read_result(path), cfg, planned, archive) else path
 
 
 def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:

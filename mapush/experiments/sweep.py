@@ -19,18 +19,15 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Glob
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import CONF_DIR, compose_config, group_file, group_options, to_plain
+from mapush.config import CONF_DIR, compose_config, group_file, group_options, overrides_name, to_plain
 from mapush.errors import BadInput, first_line
-from mapush.eval.rollout import overrides_name
 from mapush.experiments import stages
-from mapush.experiments.archive import load_results
-from mapush.experiments.pipeline import archived_result, run_job
+from mapush.experiments.archive import archived_result, load_results
 from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes
 from mapush.experiments.workers import SWEEP_PID, stop_with_the_sweep
-from mapush.levels import env_class
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
 STAGE_GROUPS = ("task",)
@@ -60,6 +57,8 @@ if not OmegaConf.has_resolver("cores"):
 @hydra.main(config_path=str(CONF_DIR), config_name="sweep", version_base="1.3")
 def job(cfg: DictConfig) -> str:
     """One sweep job in its Hydra output dir; never raises, so that a failure leaves the other jobs running."""
+    from mapush.experiments.pipeline import run_job  # training's machinery (PyTorch): loaded where jobs run
+
     job_dir = Path(HydraConfig.get().runtime.output_dir)
     (job_dir / FAILED).unlink(missing_ok=True)
     between_jobs = stop_with_the_sweep()
@@ -191,6 +190,8 @@ def job_combos(overrides: list[str], seeds: bool = True) -> list[list[str]]:
 
 def _check_jobs(overrides: list[str]) -> None:
     """Compose every job's stages (without training) so that a bad method, task or agent count fails now."""
+    from mapush.levels import env_class  # the envs (PyTorch): loaded once the sweep's names are known good
+
     checked: set[tuple[str, ...]] = set()
     for combo in job_combos(overrides, seeds=False):  # the seed changes no stage's validity
         for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):

@@ -12,8 +12,9 @@ import json
 from pathlib import Path
 
 from mapush.atomic import write_json, write_text
+from mapush.config import overrides_name
 from mapush.errors import BadInput
-from mapush.eval.rollout import evaluate, overrides_name
+from mapush.eval.rollout import evaluate
 
 AS_TRAINED = "as_trained"
 CELLS = ("success_rate", "success_rate_std", "completion_time")

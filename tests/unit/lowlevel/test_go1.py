@@ -324,7 +324,7 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
     MuJoCo's rotation, the oracle), then, the robot told to stand, walk into it and touch it (MuJoCo's contact list);
     in episodes without them they stand parked, far away."""
     from mapush.envs.low import LocomotionEnv
-    from mapush.envs.low_scene import MATE_PARKED_XY
+    from mapush.lowlevel.go1_training_scene import MATE_PARKED_XY
 
     cfg = cfg_for(
         "level=low",
@@ -370,7 +370,7 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
 
 def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(cfg_for):
     from mapush.envs.low import LocomotionEnv
-    from mapush.envs.low_scene import PARKED_XY
+    from mapush.lowlevel.go1_training_scene import PARKED_XY
 
     cfg = cfg_for("level=low", "level.randomize.load.fraction=1.0", "level.randomize.push_velocity=0.0")
     load = cfg["level"]["randomize"]["load"]
