@@ -125,13 +125,17 @@ def made_otherwise_all(results: list[dict], memo: Path | None = None) -> None:
     second a job, so what was found of an archived job (whose stages' runs are gone) is kept in `memo` (a JSON
     file) under the key of everything it depends on: the result's bytes, the store's stage records and every
     file of the mapush package (its configs, code and shipped policies) with the versions of Hydra and
-    OmegaConf. A job whose runs are here is checked each time: its run configs are among what it depends on."""
+    OmegaConf. A job whose runs are here is checked each time (its run configs are among what it depends on);
+    what the memo holds of it is kept for a machine without them."""
     package = _package_digest()
     earlier = _read_memo(memo)
     kept, records = {}, {}
     for r in results:
+        name = "/".join(job_key(Path(r["job_dir"]) / RESULT))
         if any(Path(path).is_dir() for path in r.get("stages", {}).values()):
             r["made_otherwise"] = made_otherwise(r)
+            if name in earlier:  # what a machine without these runs found stays for it
+                kept[name] = earlier[name]
             continue
         store = Path(r["job_dir"]).parent.parent
         if store not in records:
@@ -139,7 +143,6 @@ def made_otherwise_all(results: list[dict], memo: Path | None = None) -> None:
         key = hashlib.sha256(
             "\n".join([package, records[store], _digest([Path(r["job_dir"]) / RESULT], store)]).encode()
         ).hexdigest()
-        name = "/".join(job_key(Path(r["job_dir"]) / RESULT))
         found = earlier.get(name)
         if found and found["key"] == key:
             change = found["change"] and Change(**{**found["change"], "stages": tuple(found["change"]["stages"])})
