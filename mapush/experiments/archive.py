@@ -144,10 +144,7 @@ def made_otherwise_all(results: list[dict], memo: Path | None = None) -> None:
             "\n".join([package, records[store], _digest([Path(r["job_dir"]) / RESULT], store)]).encode()
         ).hexdigest()
         found = earlier.get(name)
-        if found and found["key"] == key:
-            change = found["change"] and Change(**{**found["change"], "stages": tuple(found["change"]["stages"])})
-        else:
-            change = made_otherwise(r)
+        change = Change.from_record(found["change"]) if found and found["key"] == key else made_otherwise(r)
         r["made_otherwise"] = change
         kept[name] = {"key": key, "change": change and dataclasses.asdict(change)}
     if memo is not None and kept != earlier:

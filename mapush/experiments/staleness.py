@@ -30,6 +30,11 @@ class Change:
     def __str__(self) -> str:
         return self.text
 
+    @classmethod
+    def from_record(cls, record: dict | None) -> Change | None:
+        """A change as `dataclasses.asdict` wrote it to JSON (its stages a list), None for none."""
+        return record and cls(**{**record, "stages": tuple(record["stages"])})
+
     def concerns(self, result: dict, name: str) -> bool:
         """Whether the change concerns the result's evaluation `name`, so that a table marks its cells: a changed
         evaluation concerns only itself; changed stages concern the evaluations of those stages and of every stage

@@ -5,7 +5,7 @@ states and writes commands for all envs and agents at once: `lowlevel=tracker` (
 command with a lag) or `lowlevel=go1` (the legged Go1 and its locomotion policy).
 """
 
-import importlib
+from mapush.config_terms import resolve_term
 
 BACKENDS = {"tracker": "mapush.lowlevel.tracker:Tracker", "go1": "mapush.lowlevel.go1:Go1"}
 """Registry: a low-level config's backend (`backend_name`) -> its class, imported when first used (the Go1's
@@ -19,5 +19,4 @@ def backend_name(lowlevel: dict) -> str:
 
 def backend_of(lowlevel: dict):
     """The backend class a low-level config runs on."""
-    module, _, name = BACKENDS[backend_name(lowlevel)].partition(":")
-    return getattr(importlib.import_module(module), name)
+    return resolve_term(BACKENDS[backend_name(lowlevel)], "lowlevel.backend")
