@@ -13,6 +13,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import compose_config
 from mapush.envs.low import LocomotionState
+from mapush.experiments.results import JobResult
 from mapush.logging.mcap_files import CPU_TAG
 from mapush.logging.metrics import McapLogWriter
 from mapush.sim.push import PushState
@@ -24,6 +25,11 @@ def stand_in_env(**attrs) -> SimpleNamespace:
     """An env whose state fields (e.g. `object_xy`, `lin_vel`) are under `.state` and the rest on the env itself."""
     state = {name: attrs.pop(name) for name in list(attrs) if name in STATE_FIELDS}
     return SimpleNamespace(state=SimpleNamespace(**state), **attrs)
+
+
+def as_results(records: list[dict]) -> list[JobResult]:
+    """Hand-made job results: each dict's fields, the rest at their defaults."""
+    return [JobResult(**record) for record in records]
 
 
 def stage_run(

@@ -23,18 +23,24 @@ import hydra
 import omegaconf
 from omegaconf import DictConfig
 
-from mapush.atomic import write_json, write_text
+from mapush.atomic import write_json
 from mapush.config import compose_config
 from mapush.errors import BadInput
-from mapush.experiments.results import RESULT, SUPERSEDED, every_stage_override, read_result, recorded_stage_seconds
+from mapush.experiments.results import (
+    RESULT,
+    SUPERSEDED,
+    JobResult,
+    every_stage_override,
+    read_result,
+    recorded_stage_seconds,
+    write_result,
+)
 from mapush.experiments.stage_plan import PlannedStage, planned_stages
-from mapush.experiments.stages import IDENTITY_FILE, STORE, identity_of, stage_dir, stage_paths, stands_for, store_root
+from mapush.experiments.stages import IDENTITY_FILE, STORE, identity_of, stage_dir, stands_for, store_root
 from mapush.experiments.staleness import Change, result_changes
 
 ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""
-ARCHIVED_FROM = "archived_from"
-"""The key of an archived result that names the job dir it was copied from."""
 
 
 def job_key(result_file: Path) -> tuple[str, str]:
@@ -57,21 +63,19 @@ def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
     Path(out).mkdir(parents=True, exist_ok=True)
     written, unchanged = [], 0
     for path in _result_files(runs, skip=[Path(out)]):
-        result = json.loads(path.read_text())
-        job = {**result, "job_dir": str(path.parent)}
-        runs_of = dict(zip(result.get("stages", {}), stage_paths(job), strict=True))
+        result = read_result(path)
+        runs_of = dict(zip(result.stages, result.stage_runs(), strict=True))
         target = Path(out).joinpath(*job_key(path), path.name)
-        earlier = json.loads(target.read_text()).get("stage_core_s", {}) if target.is_file() else {}
-        result["stage_core_s"] = {**earlier, **result.get("stage_core_s", {}), **recorded_stage_seconds(runs_of)}
-        result.setdefault(ARCHIVED_FROM, str(path.parent))
+        earlier = read_result(target).stage_core_s if target.is_file() else {}
+        result.stage_core_s = {**earlier, **result.stage_core_s, **recorded_stage_seconds(runs_of)}
+        result.archived_from = result.archived_from or str(path.parent)
         for run in runs_of.values():
             _archive_identity(run, Path(out))
-        text = json.dumps(result, indent=2) + "\n"
-        if target.is_file() and target.read_text() == text:
-            unchanged += 1
+        if target.is_file() and read_result(target).record() == result.record():
+            unchanged += 1  # archived before, alike (perhaps in an older format)
             continue
         target.parent.mkdir(parents=True, exist_ok=True)
-        write_text(target, text)
+        write_result(target, result)
         written.append(target)
     return written, unchanged
 
@@ -90,20 +94,19 @@ def _archive_identity(run: Path, out: Path) -> None:
             shutil.copyfile(source, target)
 
 
-def load_results(roots: list[Path]) -> list[dict]:
+def load_results(roots: list[Path]) -> list[JobResult]:
     """Every finished job's result under the `roots` (runs dirs or archives), each with its `job_dir`. A job found
     more than once (the same sweep and job name) counts once: the result that finished last, else the first
     found. A root inside another is read only as itself."""
-    chosen: dict[tuple[str, str], dict] = {}
+    chosen: dict[tuple[str, str], JobResult] = {}
     for root in roots:
         inner = [r for r in roots if Path(root).resolve() in Path(r).resolve().parents]
         for path in _result_files(root, skip=inner):
             if path.name != RESULT:
                 continue
             result = read_result(path)
-            result["job_dir"] = str(path.parent)
             key = job_key(path)
-            if key not in chosen or str(result.get("finished", "")) > str(chosen[key].get("finished", "")):
+            if key not in chosen or result.finished > chosen[key].finished:
                 chosen[key] = result
     return [chosen[key] for key in sorted(chosen)]
 
@@ -120,7 +123,7 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     return None if result_changes(read_result(path), cfg, planned, archive) else path
 
 
-def made_otherwise_all(results: list[dict], memo: Path | None = None) -> None:
+def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> None:
     """Set each result's `made_otherwise` (`made_otherwise`). Composing every job's experiment takes about a
     second a job, so what was found of an archived job (whose stages' runs are gone) is kept in `memo` (a JSON
     file) under the key of everything it depends on: the result's bytes, the store's stage records and every
@@ -131,21 +134,21 @@ def made_otherwise_all(results: list[dict], memo: Path | None = None) -> None:
     earlier = _read_memo(memo)
     kept, records = {}, {}
     for r in results:
-        name = "/".join(job_key(Path(r["job_dir"]) / RESULT))
-        if any(Path(path).is_dir() for path in r.get("stages", {}).values()):
-            r["made_otherwise"] = made_otherwise(r)
+        name = "/".join(job_key(Path(r.job_dir) / RESULT))
+        if any(Path(path).is_dir() for path in r.stages.values()):
+            r.made_otherwise = made_otherwise(r)
             if name in earlier:  # what a machine without these runs found stays for it
                 kept[name] = earlier[name]
             continue
-        store = Path(r["job_dir"]).parent.parent
+        store = Path(r.job_dir).parent.parent
         if store not in records:
             records[store] = _digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
         key = hashlib.sha256(
-            "\n".join([package, records[store], _digest([Path(r["job_dir"]) / RESULT], store)]).encode()
+            "\n".join([package, records[store], _digest([Path(r.job_dir) / RESULT], store)]).encode()
         ).hexdigest()
         found = earlier.get(name)
         change = Change.from_record(found["change"]) if found and found["key"] == key else made_otherwise(r)
-        r["made_otherwise"] = change
+        r.made_otherwise = change
         kept[name] = {"key": key, "change": change and dataclasses.asdict(change)}
     if memo is not None and kept != earlier:
         write_json(memo, kept)
@@ -175,20 +178,20 @@ def _package_digest() -> str:
     return f"hydra {hydra.__version__} omegaconf {omegaconf.__version__} {_digest(files, package)}"
 
 
-def made_otherwise(result: dict) -> Change | None:
+def made_otherwise(result: JobResult) -> Change | None:
     """What makes a finished `result` other than its experiment plans the job now (another recipe: a budget, a
     reward or tracker value, an evaluation), None when nothing does or when that cannot be told (a result without
     stages in a store, or whose experiment no longer composes). The job is composed from the axes its dir is named
     by (Hydra's `override_dirname`, e.g. `agents=2,method=ours,seed=0,task=cylinder`), its experiment, budget and
     stage overrides; its stages' records are read from the root it lies under (`<root>/<sweep>/<job>/`)."""
-    job_dir = Path(result["job_dir"])
-    if not any(identity_of(Path(path)) for path in result.get("stages", {}).values()):
+    job_dir = Path(result.job_dir)
+    if not any(identity_of(Path(path)) for path in result.stages.values()):
         return None
     axes = [axis for axis in job_dir.name.split(",") if "=" in axis]
-    extra = [every_stage_override(result["overrides"])] if result.get("overrides") else []
+    extra = [every_stage_override(result.overrides)] if result.overrides else []
     try:
         cfg = compose_config(
-            [f"experiment={result['experiment']}", f"budget={result['budget']}", *axes, *extra], config_name="sweep"
+            [f"experiment={result.experiment}", f"budget={result.budget}", *axes, *extra], config_name="sweep"
         )
         return result_changes(result, cfg, planned_stages(cfg), job_dir.parent.parent)
     except (BadInput, KeyError, ValueError):

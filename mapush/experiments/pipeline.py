@@ -32,7 +32,14 @@ from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
 from mapush.experiments.archive import archived_result
-from mapush.experiments.results import RESULT, SUPERSEDED, read_result, recorded_stage_seconds, write_result
+from mapush.experiments.results import (
+    RESULT,
+    SUPERSEDED,
+    JobResult,
+    read_result,
+    recorded_stage_seconds,
+    write_result,
+)
 from mapush.experiments.stage_plan import (
     applies,
     budget_of,
@@ -68,7 +75,7 @@ def check_code_unchanged() -> None:
         )
 
 
-def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
+def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
     """Train, evaluate and record one job; returns the result (also written to `job_dir/result.json`)."""
     check_code_unchanged()
     job_dir = Path(job_dir)
@@ -117,29 +124,29 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> dict:
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
         evals[name]["overrides"] = list(overrides)
-    result = {
-        "experiment": cfg.experiment.name,
-        "table": cfg.experiment.table,
-        "budget": cfg.budget,
-        "variant": variant(cfg),
-        "overrides": list(cfg.overrides),
-        "method": cfg.method.name,
-        "method_label": cfg.method.label,
-        "task": cfg.task.name,
-        "num_agents": int(load_run_config(evaluated).task.num_agents),
-        "seed": int(cfg.seed),
-        "stages": {name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
-        "stage_core_s": recorded_stage_seconds(runs),  # the training cost, kept when the runs are gone
-        "evals": evals,
-        "curve": kept_curve or _curve(cfg, evaluated),
-        "stage_curves": stage_curves(cfg, runs),
-        "eval_wall_s": round(time.perf_counter() - started, 1),  # this run's; `supersedes` names the earlier's
-        "threads": threads,
-        "machine_cores": os.cpu_count(),
-        "finished": datetime.datetime.now().isoformat(timespec="seconds"),
-    }
-    if earlier is not None:
-        result["supersedes"] = SUPERSEDED  # the result it replaces, whose evaluations it keeps where they hold
+    result = JobResult(
+        experiment=cfg.experiment.name,
+        table=cfg.experiment.table,
+        budget=cfg.budget,
+        variant=variant(cfg),
+        overrides=list(cfg.overrides),
+        method=cfg.method.name,
+        method_label=cfg.method.label,
+        task=cfg.task.name,
+        num_agents=int(load_run_config(evaluated).task.num_agents),
+        seed=int(cfg.seed),
+        stages={name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
+        stage_core_s=recorded_stage_seconds(runs),
+        evals=evals,
+        curve=kept_curve or _curve(cfg, evaluated),
+        stage_curves=stage_curves(cfg, runs),
+        eval_wall_s=round(time.perf_counter() - started, 1),  # this run's; `supersedes` names the earlier's
+        threads=threads,
+        machine_cores=os.cpu_count(),
+        finished=datetime.datetime.now().isoformat(timespec="seconds"),
+        supersedes=None if earlier is None else SUPERSEDED,  # its evaluations are kept where they hold
+        job_dir=str(job_dir),
+    )
     return write_result(done, result)
 
 
@@ -191,16 +198,16 @@ def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
     return points
 
 
-def _with_stage_curves(result: dict, cfg: DictConfig, path: Path) -> dict:
+def _with_stage_curves(result: JobResult, cfg: DictConfig, path: Path) -> JobResult:
     """A finished job's `result` with the stage curves its budget asks for now and it lacks, drawn where the stage
     runs are here (the evaluation time counted in `eval_wall_s`) and written back to `path`."""
     started = time.perf_counter()
-    runs = {name: Path(run) for name, run in result.get("stages", {}).items()}
-    curves = stage_curves(cfg, runs, result.get("stage_curves"))
-    if curves == result.get("stage_curves", {}):
+    runs = {name: Path(run) for name, run in result.stages.items()}
+    curves = stage_curves(cfg, runs, result.stage_curves)
+    if curves == (result.stage_curves or {}):
         return result
-    result["stage_curves"] = curves
-    result["eval_wall_s"] = round(float(result.get("eval_wall_s", 0.0)) + time.perf_counter() - started, 1)
+    result.stage_curves = curves
+    result.eval_wall_s = round(float(result.eval_wall_s or 0.0) + time.perf_counter() - started, 1)
     return write_result(path, result)
 
 

@@ -1,34 +1,99 @@
-"""A sweep job's record: `result.json` in its job dir, and the earlier result a rerun keeps beside it. Read and
-written here only, so that every reader gets today's form (`migrations.upgrade`)."""
+"""A sweep job's record (`JobResult`): `result.json` in its job dir, and the earlier result a rerun keeps beside
+it. Read and written here only, so that every reader gets today's form (`migrations.upgrade`) as typed fields."""
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.migrations import stamp, upgrade
 
+if TYPE_CHECKING:
+    from mapush.experiments.staleness import Change
+
 RESULT = "result.json"
 """A finished job's record, written by `run_job`, read by `read_result`."""
-
-
-def read_result(path: Path) -> dict:
-    """A job's `result.json` (or the result it superseded) as today's form (`migrations.upgrade`)."""
-    return upgrade(json.loads(Path(path).read_text()), str(path))
-
 
 SUPERSEDED = "result.superseded.json"
 """Where a job's earlier result goes when the experiment changed under it (`result_changes`)."""
 
+ARCHIVED_FROM = "archived_from"
+"""The field of an archived result that names the job dir it was copied from (`mapush archive`)."""
 
-def write_result(path: Path, result: dict) -> dict:
-    """Write a job's `result` (stamped with today's format) to `path` atomically; returns what was written."""
-    result = stamp(result)
-    write_json(path, result)
+
+@dataclass
+class JobResult:
+    """What one sweep job made: which job it is, the stage runs it trained or reused, its evaluations and learning
+    curves, and what they cost. The fields before `job_dir` are the file's; an absent optional one is None.
+
+    `evals` maps an evaluation's name to its record: the evaluation file's summary (`success_rate`,
+    `completion_time`, `exceptions`, ... as `mapush eval` writes them) with its `file` and `overrides`. A curve is
+    `{eval, every_env_steps, reach, rule, points, ...}` as `pipeline` draws it."""
+
+    experiment: str = ""
+    table: str = ""
+    budget: str = ""
+    variant: str = ""  # the budget, and the sweep's extra stage overrides if any: tables never mix variants
+    overrides: list[str] = field(default_factory=list)  # extra overrides for every stage
+    method: str = ""
+    method_label: str = ""
+    task: str = ""
+    num_agents: int = 0
+    seed: int = 0
+    stages: dict[str, str] = field(default_factory=dict)  # stage name -> run dir, in training order
+    stage_core_s: dict[str, float] = field(default_factory=dict)  # training core-seconds, kept when runs are gone
+    evals: dict[str, dict] = field(default_factory=dict)
+    curve: dict | None = None  # the evaluated stage's learning curve, if the budget asks for one
+    stage_curves: dict[str, dict] | None = None  # the curves of stages trained under it, by stage name
+    eval_wall_s: float | None = None  # this job's time after training (None: finished before it was recorded)
+    threads: int | None = None
+    machine_cores: int | None = None
+    finished: str = ""  # ISO time
+    supersedes: str | None = None  # the earlier result this one replaced (`SUPERSEDED`), beside it
+    archived_from: str | None = None  # the job dir `mapush archive` copied it from
+    # not in the file: where it was read, and what `mapush tables` found of it against its experiment now
+    job_dir: str = field(default="", metadata={"in_file": False})
+    made_otherwise: Change | None = field(default=None, metadata={"in_file": False})
+
+    @classmethod
+    def from_record(cls, record: dict, job_dir: str | Path = "") -> JobResult:
+        """A result from its file's content (today's form), read from `job_dir`."""
+        names = {f.name for f in dataclasses.fields(cls) if f.metadata.get("in_file", True)}
+        unknown = sorted(set(record) - names - {"format_version"})
+        if unknown:
+            raise BadInput(f"result in {job_dir or 'a record'} has unknown fields {unknown}; valid: {sorted(names)}")
+        return cls(**{k: v for k, v in record.items() if k in names}, job_dir=str(job_dir))
+
+    def record(self) -> dict:
+        """The file's content: its fields in order, the optional ones only when set."""
+        optional = {"stage_curves", "eval_wall_s", "supersedes", "archived_from"}
+        return {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if f.metadata.get("in_file", True) and not (f.name in optional and getattr(self, f.name) is None)
+        }
+
+    def stage_runs(self) -> list[Path]:
+        """The run dirs of its stages, in training order (`stages.stage_paths`)."""
+        return stages.stage_paths(self.stages, self.job_dir)
+
+
+def read_result(path: Path) -> JobResult:
+    """A job's `result.json` (or the result it superseded) in today's form (`migrations.upgrade`), with its job dir."""
+    path = Path(path)
+    return JobResult.from_record(upgrade(json.loads(path.read_text()), str(path)), path.parent)
+
+
+def write_result(path: Path, result: JobResult) -> JobResult:
+    """Write a job's `result` (stamped with today's format) to `path` atomically; returns it."""
+    write_json(path, stamp(result.record()))
     return result
 
 

@@ -23,6 +23,7 @@ import os
 import shutil
 import statistics
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from omegaconf import OmegaConf
 
@@ -31,6 +32,9 @@ from mapush.config import compose_config, env_steps_per_iteration, load_run_conf
 from mapush.logging.mcap_files import CPU_TAG, THREADS_TAG, training_scalars
 from mapush.migrations import UNSET_LATER_KEYS, stamp, upgrade
 from mapush.rundir import POLICY_FILE, checkpoint_iteration, checkpoints, find_runs
+
+if TYPE_CHECKING:
+    from mapush.experiments.results import JobResult
 
 STORE = "stages"
 """The store's folder under `sweep_root`."""
@@ -156,7 +160,7 @@ def shape(cfg: dict) -> tuple:
             cfg["lowlevel"]["name"])  # fmt: skip
 
 
-def cost_per_env_step(results: list[dict], roots: list[Path]) -> dict[tuple, float]:
+def cost_per_env_step(results: list[JobResult], roots: list[Path]) -> dict[tuple, float]:
     """Measured training core-seconds per env-step of each stage `shape`, pooled over the distinct stages behind
     `results` (their `stage_core_s`) whose `stage.yaml` lies in the store of one of the `roots` (sweep roots or
     archives): what `mapush sweep --dry-run` estimates the stages it will train from."""
@@ -164,8 +168,8 @@ def cost_per_env_step(results: list[dict], roots: list[Path]) -> dict[tuple, flo
     steps: dict[tuple, float] = {}
     seen: set[str] = set()
     for result in results:
-        for name, path in result.get("stages", {}).items():
-            key, core_s = identity_of(Path(path)), result.get("stage_core_s", {}).get(name)
+        for name, path in result.stages.items():
+            key, core_s = identity_of(Path(path)), result.stage_core_s.get(name)
             if core_s is None or key is None or key in seen:
                 continue
             seen.add(key)
@@ -254,14 +258,15 @@ def run_threads(run_dir: Path) -> int:
     return sim_threads(load_run_config(run_dir))
 
 
-def stage_paths(result: dict) -> list[Path]:
-    """The run dirs of a job's stages, in training order. A stage run that is not where the result says (a path
-    relative to the directory the sweep ran in, `runs/sweeps/stages/...`, or a job archived by `mapush archive`)
-    is looked up under the job's own sweep root."""
+def stage_paths(runs: dict[str, str], job_dir: str | Path = "") -> list[Path]:
+    """The run dirs of a job's stages (`runs`: stage name -> run dir as its result names it), in training order. A
+    stage run that is not where the result says (a path relative to the directory the sweep ran in,
+    `runs/sweeps/stages/...`, or a job archived by `mapush archive`) is looked up under the sweep root of the
+    job's dir `job_dir`."""
     paths = []
-    for text in result.get("stages", {}).values():
+    for text in runs.values():
         path, in_store = Path(text), store_parts(Path(text))
-        if not path.is_dir() and in_store and "job_dir" in result:
-            path = Path(result["job_dir"]).parents[1].joinpath(*in_store)
+        if not path.is_dir() and in_store and job_dir:
+            path = Path(job_dir).parents[1].joinpath(*in_store)
         paths.append(path)
     return paths

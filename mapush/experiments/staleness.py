@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from omegaconf import DictConfig, OmegaConf
 
@@ -14,6 +14,9 @@ from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.experiments import stages
 from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, eval_overrides, eval_stage, evaluated_stage
 from mapush.lowlevel import backend_of
+
+if TYPE_CHECKING:
+    from mapush.experiments.results import JobResult
 
 
 @dataclass(frozen=True)
@@ -35,20 +38,20 @@ class Change:
         """A change as `dataclasses.asdict` wrote it to JSON (its stages a list), None for none."""
         return record and cls(**{**record, "stages": tuple(record["stages"])})
 
-    def concerns(self, result: dict, name: str) -> bool:
+    def concerns(self, result: JobResult, name: str) -> bool:
         """Whether the change concerns the result's evaluation `name`, so that a table marks its cells: a changed
         evaluation concerns only itself; changed stages concern the evaluations of those stages and of every stage
         after them in the plan (trained on them), not a mid level evaluated alone whose high level alone changed;
         any other change (the set of evaluations, the curve) the whole job."""
         if self.kind == "evaluation":
             return self.evaluation == name
-        order, evaluated = list(result.get("stages", {})), _evaluated_stage(result, name)
+        order, evaluated = list(result.stages), _evaluated_stage(result, name)
         if self.kind != "stages" or evaluated is None:
             return True
         return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in self.stages)
 
 
-def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
+def still_valid(result: JobResult, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
     """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
     a stage with the same identity (or one it was adopted from), with the same overrides and locomotion policy.
     An evaluation that recorded no overrides (made before they were recorded) is taken as made with today's, as
@@ -56,26 +59,26 @@ def still_valid(result: dict, cfg: DictConfig, planned: list[PlannedStage]) -> t
     same = _same_stages(result, cfg, planned)
     kept = {}
     for name, spec in cfg.experiment.evals.items():
-        record = result.get("evals", {}).get(name)
+        record = result.evals.get(name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
         holds = holds and record.get("overrides", eval_overrides(spec)) == eval_overrides(spec)
         if holds and not _walker_changed(record, result, cfg, name, planned):
             kept[name] = {**record, "overrides": eval_overrides(spec)}
-    curve, spec = result.get("curve"), budget_of(cfg).get("curve")
+    curve, spec = result.curve, budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
     if not holds or curve.get("every_env_steps") != spec.every_env_steps:
         return kept, None
     return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
 
 
-def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str, planned: list[PlannedStage]) -> bool:
+def _walker_changed(record: dict, result: JobResult, cfg: DictConfig, name: str, planned: list[PlannedStage]) -> bool:
     """Whether the locomotion policy evaluation `name` would walk its robots with now (`lowlevel.policy`, or the
     shipped one) is another than the one its `record` names; a legged evaluation that named none counts as
     changed. The stage's run config says which policy, or where the run is gone (another machine, an archived
     job), the stage's config as the experiment plans it now."""
     spec = cfg.experiment.evals[name]
     stage = eval_stage(cfg, spec)
-    run = result.get("stages", {}).get(stage)
+    run = result.stages.get(stage)
     if run and Path(run).is_dir():
         stage_cfg = load_run_config(run)
     else:
@@ -86,10 +89,10 @@ def _walker_changed(record: dict, result: dict, cfg: DictConfig, name: str, plan
     return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
 
 
-def _same_stages(result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
+def _same_stages(result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
     """Names of the planned stages that `result` was made with: the same identity, or one the planned stage was
     adopted from (`stages.stands_for`, read from the store under `root`, by default the sweep root)."""
-    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    made = {name: stages.identity_of(Path(path)) for name, path in result.stages.items()}
     root = Path(cfg.sweep_root if root is None else root)
     return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
 
@@ -105,37 +108,37 @@ def _about_stages(changed: dict[str, tuple[str | None, str | None]]) -> Change:
     return Change("stages", f"its stages changed ({text})", stages=tuple(changed))
 
 
-def _evaluated_stage(result: dict, name: str) -> str | None:
+def _evaluated_stage(result: JobResult, name: str) -> str | None:
     """The stage whose run evaluation `name` of `result` loaded its checkpoint from, None when none is named."""
-    checkpoint = Path(result.get("evals", {}).get(name, {}).get("checkpoint", ""))
-    return next((stage for stage, run in result.get("stages", {}).items() if Path(run) in checkpoint.parents), None)
+    checkpoint = Path(result.evals.get(name, {}).get("checkpoint", ""))
+    return next((stage for stage, run in result.stages.items() if Path(run) in checkpoint.parents), None)
 
 
 def result_changes(
-    result: dict, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None
+    result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None
 ) -> Change | None:
     """What makes a job's finished `result` stale against its experiment now, None when nothing does: another stage
     identity (a budget, reward or tracker value changed), or other evaluations or curve than the experiment asks for.
     `root` holds the stage records (`stage.yaml`) of the result's stages: the sweep root, or the archive.
     """
-    made = {name: stages.identity_of(Path(path)) for name, path in result.get("stages", {}).items()}
+    made = {name: stages.identity_of(Path(path)) for name, path in result.stages.items()}
     wanted = {stage.name: stage.identity for stage in planned}
     same = _same_stages(result, cfg, planned, root)
     changed = [name for name in {**wanted, **made} if name not in same]  # the plan's order, then stages it lacks
     if changed:
         return _about_stages({name: (made.get(name), wanted.get(name)) for name in changed})
     evals = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
-    if sorted(result.get("evals", {})) != evals:
-        had = ", ".join(sorted(result.get("evals", {})))
+    if sorted(result.evals) != evals:
+        had = ", ".join(sorted(result.evals))
         return Change("evaluations", f"its evaluations changed ({had} -> {', '.join(evals)})")
     for name in evals:  # results made before evaluations recorded their overrides are taken as they are
-        recorded, now = result["evals"][name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
+        recorded, now = result.evals[name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
         if recorded is not None and recorded != now:
             return _about_evaluation(name, f"changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})")
-        if _walker_changed(result["evals"][name], result, cfg, name, planned):
-            if "lowlevel_policy" not in result["evals"][name]:
+        if _walker_changed(result.evals[name], result, cfg, name, planned):
+            if "lowlevel_policy" not in result.evals[name]:
                 return _about_evaluation(name, "recorded no locomotion policy")
             return _about_evaluation(name, "walked its robots with another locomotion policy than now")
-    if bool(result.get("curve")) != bool(budget_of(cfg).get("curve")):
+    if bool(result.curve) != bool(budget_of(cfg).get("curve")):
         return Change("curve", "its learning curve was added or dropped")
     return None

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import datetime
 import functools
-import json
 import os
 from collections import Counter
 from collections.abc import Callable
@@ -27,12 +26,13 @@ from pathlib import Path
 
 from mapush.errors import BadInput
 from mapush.experiments import stages
-from mapush.experiments.stages import run_threads, stage_core_seconds, stage_paths
+from mapush.experiments.results import JobResult, read_result
+from mapush.experiments.stages import run_threads, stage_core_seconds
 from mapush.rundir import POLICY_FILE
 
 
 def measured_cost(
-    results: list[dict], cores: int | None = None, stage_seconds: Callable[[Path], float] = stage_core_seconds
+    results: list[JobResult], cores: int | None = None, stage_seconds: Callable[[Path], float] = stage_core_seconds
 ) -> dict:
     """The cost of the jobs' `results`: training over their distinct stages, evaluation over the jobs, and the
     hours of a `cores`-core machine (default: the one the jobs record, else this one) with every core busy.
@@ -47,16 +47,16 @@ def measured_cost(
     Jobs that ran on a machine of another core count (a lent many-core machine) are counted in core-seconds as
     measured there, which are not this machine's: how many and what they added is said (`other_machines`, cores
     -> jobs; `other_machines_core_h`)."""
-    results = [r for r in results if r.get("stages")]  # hand-made results may name none
+    results = [r for r in results if r.stages]  # hand-made results may name none
     pairs = [(r, e) for r in results if (e := _superseded(r))]
     again = [e for r, e in pairs if _evaluated(e) == _evaluated(r)]
     replaced = [e for r, e in pairs if _evaluated(e) != _evaluated(r)]
     cost = _cost_of(results, again, stage_seconds)
-    recorded = Counter(int(r["machine_cores"]) for r in results if r.get("machine_cores"))
+    recorded = Counter(int(r.machine_cores) for r in results if r.machine_cores)
     cores = cores or (recorded.most_common(1)[0][0] if recorded else os.cpu_count() or 1)
     seconds = cost.pop("seconds")
     before = _cost_of(results, again + replaced, stage_seconds)["seconds"] - seconds if replaced else 0.0
-    elsewhere = [r for r in results if int(r.get("machine_cores") or cores) != cores]
+    elsewhere = [r for r in results if int(r.machine_cores or cores) != cores]
     return {
         **cost,
         "evaluated_again": len(again),
@@ -64,23 +64,23 @@ def measured_cost(
         "machine_h": round(seconds / 3600 / cores, 2),
         "superseded": len(replaced),
         "superseded_machine_h": round(before / 3600 / cores, 2),
-        "other_machines": dict(sorted(Counter(int(r["machine_cores"]) for r in elsewhere).items())),
+        "other_machines": dict(sorted(Counter(int(r.machine_cores) for r in elsewhere).items())),
         "other_machines_core_h": round(_cost_of(elsewhere, [], stage_seconds)["seconds"] / 3600, 2),
     }
 
 
-def _evaluated(result: dict) -> Path:
+def _evaluated(result: JobResult) -> Path:
     """The run dir of the stage a job evaluated (its last)."""
-    return stage_paths(result)[-1].resolve()
+    return result.stage_runs()[-1].resolve()
 
 
-def _cost_of(results: list[dict], earlier: list[dict], stage_seconds: Callable[[Path], float]) -> dict:
+def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: Callable[[Path], float]) -> dict:
     """`measured_cost` of the jobs' `results` and of `earlier` results of theirs (counted, but not as jobs), in
     core-hours and in core-seconds (`seconds`)."""
     jobs_now = len(results)
     results = results + earlier
     groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (mapush stages rekey) train once
-    for path in {path.resolve() for r in results for path in stage_paths(r)}:
+    for path in {path.resolve() for r in results for path in r.stage_runs()}:
         groups.setdefault(_original_stage(path), []).append(path)
     recorded = _recorded_stage_seconds(results)
     training, unreadable, from_records = 0.0, 0, 0
@@ -97,12 +97,12 @@ def _cost_of(results: list[dict], earlier: list[dict], stage_seconds: Callable[[
     evaluation, jobs, from_file_times, unknown = 0.0, 0, 0, 0
     first_to_evaluate = _first_to_evaluate(results)
     for k, r in enumerate(results):
-        evaluated = stage_paths(r)[-1]  # training stops at the evaluated stage
+        evaluated = r.stage_runs()[-1]  # training stops at the evaluated stage
         try:
-            if "eval_wall_s" in r:
-                evaluation += float(r["eval_wall_s"]) * int(r.get("threads") or run_threads(evaluated))
+            if r.eval_wall_s is not None:
+                evaluation += float(r.eval_wall_s) * int(r.threads or run_threads(evaluated))
             elif first_to_evaluate.get(evaluated.resolve()) is r:
-                finished = datetime.datetime.fromisoformat(r["finished"]).timestamp()
+                finished = datetime.datetime.fromisoformat(r.finished).timestamp()
                 spent = max(0.0, finished - os.path.getmtime(evaluated / POLICY_FILE))
                 evaluation += spent * run_threads(evaluated)
                 from_file_times += 1
@@ -125,7 +125,7 @@ def _cost_of(results: list[dict], earlier: list[dict], stage_seconds: Callable[[
     }
 
 
-def cost_by(results: list[dict], key: str, cores: int) -> dict[str, float]:
+def cost_by(results: list[JobResult], key: str, cores: int) -> dict[str, float]:
     """Hours of the `cores`-core machine that each group of `results` (by `r[key]`, in first-seen order) added to
     the whole: the cost of the groups so far less that of the groups before, so a stage that two groups share
     counts in the first and the parts add up to the whole."""
@@ -133,23 +133,23 @@ def cost_by(results: list[dict], key: str, cores: int) -> dict[str, float]:
     parts: dict[str, float] = {}
     so_far: list[dict] = []
     before = 0.0
-    for group in dict.fromkeys(r.get(key) for r in results):
-        so_far += [r for r in results if r.get(key) == group]
+    for group in dict.fromkeys(getattr(r, key) for r in results):
+        so_far += [r for r in results if getattr(r, key) == group]
         total = measured_cost(so_far, cores, stage_seconds)["machine_h"]
         parts[str(group)] = round(total - before, 2)
         before = total
     return parts
 
 
-def cost_after(results: list[dict], others: list[dict], cores: int) -> dict | None:
+def cost_after(results: list[JobResult], others: list[JobResult], cores: int) -> dict | None:
     """What the jobs' `results` add to the jobs of other tables (`others`), in hours of the `cores`-core machine:
     the table's cost when it runs after them, the stages it shares with them already trained (the scalability
     study after the main table). None when they share no stage."""
-    mine = {path.resolve() for r in results for path in stage_paths(r)}
+    mine = {path.resolve() for r in results for path in r.stage_runs()}
     shared_by: dict[str, set[Path]] = {}  # table -> the stages of `results` it shares
     for r in others:
-        if common := mine & {p.resolve() for p in stage_paths(r)}:
-            shared_by.setdefault(str(r.get("table")), set()).update(common)
+        if common := mine & {p.resolve() for p in r.stage_runs()}:
+            shared_by.setdefault(str(r.table), set()).update(common)
     if not shared_by:
         return None
     shared = set().union(*shared_by.values())
@@ -159,13 +159,13 @@ def cost_after(results: list[dict], others: list[dict], cores: int) -> dict | No
     return {"tables": sorted(shared_by), "shared_stages": len(shared), "machine_h": round(after - before, 2)}
 
 
-def _recorded_stage_seconds(results: list[dict]) -> dict[Path, float]:
+def _recorded_stage_seconds(results: list[JobResult]) -> dict[Path, float]:
     """Stage run -> the core-seconds a job recorded for it when it finished (`stage_core_s`): the cost of a stage
     whose run is gone, as for the archived results of `mapush archive`."""
     recorded: dict[Path, float] = {}
     for r in results:
-        seconds = r.get("stage_core_s") or {}
-        for name, path in zip(r.get("stages", {}), stage_paths(r), strict=True):
+        seconds = r.stage_core_s or {}
+        for name, path in zip(r.stages, r.stage_runs(), strict=True):
             if name in seconds:
                 path = path.resolve()
                 recorded[path] = max(recorded.get(path, 0.0), float(seconds[name]))
@@ -181,21 +181,19 @@ def _original_stage(run_dir: Path) -> object:
     return root, stages.stands_for(root, stages.identity_of(run_dir))[-1]
 
 
-def _superseded(result: dict) -> dict | None:
+def _superseded(result: JobResult) -> JobResult | None:
     """The earlier result a job replaced when it ran again (`supersedes`), with its job dir; None without one."""
-    if not result.get("supersedes") or "job_dir" not in result:
+    if not result.supersedes or not result.job_dir:
         return None
-    path = Path(result["job_dir"]) / result["supersedes"]
-    if not path.is_file():
-        return None
-    return {**json.loads(path.read_text()), "job_dir": result["job_dir"]}
+    path = Path(result.job_dir) / result.supersedes
+    return read_result(path) if path.is_file() else None
 
 
-def _first_to_evaluate(results: list[dict]) -> dict[Path, dict]:
+def _first_to_evaluate(results: list[JobResult]) -> dict[Path, JobResult]:
     """Per evaluated stage, the earliest-finished job that evaluates it (the one that may have trained it)."""
-    first: dict[Path, dict] = {}
-    for r in sorted(results, key=lambda r: str(r.get("finished", ""))):
-        first.setdefault(stage_paths(r)[-1].resolve(), r)
+    first: dict[Path, JobResult] = {}
+    for r in sorted(results, key=lambda r: r.finished):
+        first.setdefault(r.stage_runs()[-1].resolve(), r)
     return first
 
 

@@ -7,6 +7,7 @@ import numpy as np
 from omegaconf import OmegaConf
 
 from mapush.config import group_file
+from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching
 from mapush.report.formats import Finding, Table
@@ -22,10 +23,10 @@ EXTRA_COLUMNS = {
 conf/experiment/main.yaml that name a `column` (path following; the legged Go1s that the paper's robots were)."""
 
 
-def main_table(results: list[dict], variant: str) -> Table:
+def main_table(results: list[JobResult], variant: str) -> Table:
     """Table II's layout: rows task x metric, columns the methods in the paper's order."""
     paper = PAPER["main"]
-    mine = [r for r in results if r["table"] == "main" and r["variant"] == variant]
+    mine = [r for r in results if r.table == "main" and r.variant == variant]
     methods = paper["methods"]
     rows, missing, findings = [], [], []
     for task in paper["tasks"]:
@@ -90,7 +91,7 @@ def success_time(success_rate: float, completion_time: float) -> float | None:
     return (completion_time - (1.0 - success_rate)) / success_rate
 
 
-def _main_findings(mine: list[dict], paper: dict, task: str) -> list[Finding]:
+def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
     """What holds on one object: Ours against the paper, the baselines, path following and the legged robots."""
     sr = {m: collect(mine, "success_rate", 100.0, method=m, task=task, eval="main").values for m in paper["methods"]}
     ours = sr["ours"]
@@ -108,7 +109,7 @@ def _main_findings(mine: list[dict], paper: dict, task: str) -> list[Finding]:
     )
     numbers = {"ours_sr": mean, "paper_sr": paper_sr, "ours_ct": ct, "paper_ct": paper_ct}
     lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers)]
-    timeouts = {r["evals"].get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
+    timeouts = {r.evals.get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
     mine_t, paper_t = success_time(mean / 100, ct), success_time(paper_sr / 100, paper_ct)
     if len(timeouts) == 1 and None not in timeouts and mine_t is not None and paper_t is not None:
         (timeout,) = timeouts
@@ -157,7 +158,7 @@ def _main_findings(mine: list[dict], paper: dict, task: str) -> list[Finding]:
     return lines
 
 
-def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[Finding]:
+def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
     """The paper's comparison on legs: each baseline evaluated on Go1s (`go1`) against Ours on Go1s."""
     ours = collect(mine, "success_rate", 100.0, method="ours", task=task, eval="go1").values
     if not ours:
@@ -176,10 +177,10 @@ def _legged_baseline(mine: list[dict], paper: dict, task: str) -> list[Finding]:
     return lines
 
 
-def _ended_by(results: list[dict], task: str, eval_name: str) -> str:
+def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
     """The end of a finding line: which exceptions ended the evaluation's episodes, where its records name them."""
-    shares = [r["evals"][eval_name]["exceptions"] for r in matching(results, method="ours", task=task)
-              if "exceptions" in r["evals"].get(eval_name, {})]  # fmt: skip
+    shares = [r.evals[eval_name]["exceptions"] for r in matching(results, method="ours", task=task)
+              if "exceptions" in r.evals.get(eval_name, {})]  # fmt: skip
     if not shares:
         return ""
     mean = {kind: 100.0 * float(np.mean([s[kind] for s in shares])) for kind in shares[0]}

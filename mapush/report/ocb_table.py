@@ -4,19 +4,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching, reach_cell
 from mapush.report.formats import Finding, Table
 
 
-def ocb_table(results: list[dict], variant: str) -> Table:
+def ocb_table(results: list[JobResult], variant: str) -> Table:
     """The OCB ablation: rows with and without OCB, columns S.R. and C.T. (s) at each timeout."""
     paper = PAPER["ocb_ablation"]
-    mine = [r for r in results if r["table"] == "ocb_ablation" and r["variant"] == variant]
+    mine = [r for r in results if r.table == "ocb_ablation" and r.variant == variant]
     columns, rows, missing = [], [], []
     for name in paper["evals"]:
         columns += [f"S.R. (%), {paper['eval_labels'][name]}", f"C.T. (s), {paper['eval_labels'][name]}"]
-    curve = next((r["curve"] for r in mine if r.get("curve")), None)
+    curve = next((r.curve for r in mine if r.curve), None)
     if curve:
         columns.append(
             f"Env-steps (M) to {100 * float(curve['reach']):.0f} % S.R., {paper['eval_labels'][curve['eval']]}"
@@ -51,7 +52,7 @@ def ocb_table(results: list[dict], variant: str) -> Table:
     )
 
 
-def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, list[dict]]) -> list[Finding]:
+def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, list[JobResult]]) -> list[Finding]:
     """The paper's OCB finding (success at each timeout, with against without) checked on our cells, and whether
     each arm's budget has flattened."""
     findings = []

@@ -12,20 +12,21 @@ from pathlib import Path
 import numpy as np
 
 from mapush.eval.curve_points import first_reaching, tail_gain
+from mapush.experiments.results import JobResult
 from mapush.report.formats import Finding
 
 
-def curve_of(result: dict, stage: str | None = None) -> dict | None:
+def curve_of(result: JobResult, stage: str | None = None) -> dict | None:
     """A job's learning curve: its evaluated stage's (`stage` None), or the own curve of the stage named."""
-    return result.get("curve") if stage is None else (result.get("stage_curves") or {}).get(stage)
+    return result.curve if stage is None else (result.stage_curves or {}).get(stage)
 
 
-def drawn_stages(results: list[dict]) -> list[str]:
+def drawn_stages(results: list[JobResult]) -> list[str]:
     """The stages trained before the evaluated one whose own curves some of `results` carry."""
-    return sorted({name for r in results for name in (r.get("stage_curves") or {})})
+    return sorted({name for r in results for name in (r.stage_curves or {})})
 
 
-def seed_curves(results: list[dict], stage: str | None = None) -> list[list[dict]]:
+def seed_curves(results: list[JobResult], stage: str | None = None) -> list[list[dict]]:
     """The curve points of each result that has a curve (one list per training seed)."""
     curves = (curve_of(r, stage) for r in results)
     return [c["points"] for c in curves if c and c["points"]]
@@ -38,12 +39,12 @@ def mean_curve(per_seed: list[list[dict]]) -> tuple[np.ndarray, np.ndarray, np.n
     return np.array(shared, dtype=float), rates.mean(0), rates.std(0)
 
 
-def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
+def reach_values(results: list[JobResult]) -> tuple[list[float], list[str], int]:
     """Env-steps (millions) at which each result's curve first reached its `reach` success rate, the job dirs of
     those, and how many curves never reached it."""
     values, sources, unreached = [], [], 0
     for r in results:
-        curve = r.get("curve")
+        curve = r.curve
         if not curve or not curve["points"]:
             continue
         hit = first_reaching(curve["points"], float(curve["reach"]))
@@ -51,11 +52,11 @@ def reach_values(results: list[dict]) -> tuple[list[float], list[str], int]:
             unreached += 1
         else:
             values.append(hit["env_steps"] / 1e6)
-            sources.append(r["job_dir"])
+            sources.append(r.job_dir)
     return values, sources, unreached
 
 
-def budget_verdict(label: str, results: list[dict], stage: str | None = None) -> Finding | None:
+def budget_verdict(label: str, results: list[JobResult], stage: str | None = None) -> Finding | None:
     """Whether the budget of `results` (of their evaluated stage, or of `stage`) has flattened by their
     experiment's rule, or whether they did not learn at all (0 % at every checkpoint: a flat curve at 0 is no
     budget that has done its work) (the success gained over the last `tail` of the env-steps, mean over seeds, below
@@ -93,12 +94,12 @@ def budget_verdict(label: str, results: list[dict], stage: str | None = None) ->
     return Finding(text, bool(mean < limit), numbers)
 
 
-def stage_verdicts(label: str, results: list[dict], stages: list[str]) -> list[Finding]:
+def stage_verdicts(label: str, results: list[JobResult], stages: list[str]) -> list[Finding]:
     """`budget_verdict` of each of `stages` that `results` trained before their evaluated stage (the last they
     name), by the stage's own curves, each saying how many of those jobs lack one (their runs were not here)."""
     verdicts = []
     for stage in stages:
-        trained = [r for r in results if stage in list(r.get("stages", {}))[:-1]]
+        trained = [r for r in results if stage in list(r.stages)[:-1]]
         if not trained:
             continue
         name = f"{label}, {stage} level"
@@ -111,7 +112,9 @@ def stage_verdicts(label: str, results: list[dict], stages: list[str]) -> list[F
     return verdicts
 
 
-def curves_plot(panels: dict[str, dict[str, list[dict]]], path: Path, title: str, stage: str | None = None) -> bool:
+def curves_plot(
+    panels: dict[str, dict[str, list[JobResult]]], path: Path, title: str, stage: str | None = None
+) -> bool:
     """Evaluated success against env-steps, mean +- std over seeds: one panel per key of `panels`, one line per
     label (`{panel: {label: results}}`), of the evaluated stages' curves or of `stage`'s own. Returns False (and
     draws nothing) when no result has such a curve."""

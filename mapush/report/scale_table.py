@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from mapush.config import group_file
+from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching
 from mapush.report.formats import Finding, Table
@@ -18,11 +19,11 @@ def _robots(n: int) -> str:
     return f"{n} robot" + ("s" if n != 1 else "")
 
 
-def scale_table(results: list[dict], variant: str) -> Table:
+def scale_table(results: list[JobResult], variant: str) -> Table:
     """Scalability: rows the robot counts (the paper's, the study's and any run), columns the hierarchy's S.R. and
     C.T. and the mid level's own S.R. (the paper: a figure)."""
-    mine = [r for r in results if r["table"] == "scale" and r["variant"] == variant]
-    counts = sorted(set(PAPER["scale"]["robots"]) | set(SCALE_ROBOTS) | {r["num_agents"] for r in mine})
+    mine = [r for r in results if r.table == "scale" and r.variant == variant]
+    counts = sorted(set(PAPER["scale"]["robots"]) | set(SCALE_ROBOTS) | {r.num_agents for r in mine})
     rows, missing = [], []
     for n in counts:
         cells = [

@@ -52,11 +52,11 @@ def write_tables(
     results = load_results(roots)
     out.mkdir(parents=True, exist_ok=True)
     made_otherwise_all(results, memo=out / CHECKED)
-    variants = sorted({r["variant"] for r in results} | {"quick"})
+    variants = sorted({r.variant for r in results} | {"quick"})
     out.mkdir(parents=True, exist_ok=True)
     tables, kept = [], []
     for variant in variants:
-        present = {r["table"] for r in results if r["variant"] == variant}
+        present = {r.table for r in results if r.variant == variant}
         for kind, build in BUILDERS.items():
             if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
                 continue
@@ -65,13 +65,11 @@ def write_tables(
             if earlier > filled_cells(table) and not overwrite:
                 kept.append((table, earlier))
                 continue
-            behind = [r for r in results if r["table"] == kind and r["variant"] == variant]
-            table.otherwise = [
-                f"{Path(r['job_dir']).name}: {r['made_otherwise']}" for r in behind if r["made_otherwise"]
-            ]
+            behind = [r for r in results if r.table == kind and r.variant == variant]
+            table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
             table.cost = measured_cost(behind)
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
-            others = [r for r in results if r["table"] != kind and r["variant"] == variant]
+            others = [r for r in results if r.table != kind and r.variant == variant]
             table.cost["after"] = cost_after(behind, others, table.cost["cores"])
             write_text(out / f"{table.name}.md", markdown(table))
             write_text(out / f"{table.name}.tex", latex(table))

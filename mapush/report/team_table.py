@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from mapush.config import group_file
+from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import collect
 from mapush.report.formats import Finding, Table
@@ -37,15 +38,15 @@ def capacity_margin(task: str, mass: float, robots: int, capacity: float | None)
     return (low + high) / 2 / (robots * capacity)
 
 
-def team_table(results: list[dict], variant: str) -> Table:
+def team_table(results: list[JobResult], variant: str) -> Table:
     """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin."""
-    mine = [r for r in results if r["table"] == "team" and r["variant"] == variant]
+    mine = [r for r in results if r.table == "team" and r.variant == variant]
     masses = eval_masses()
     capacity = one_robot_capacity()
     rows, missing, lines = [], [], {}
     for task in TEAM.sweep.task:
         for n in TEAM.sweep.agents:
-            jobs = [r for r in mine if r["task"] == task and r["num_agents"] == n]
+            jobs = [r for r in mine if r.task == task and r.num_agents == n]
             lines[f"{task} / {n} robots"] = jobs
             cells = []
             for name, mass in masses.items():

@@ -34,14 +34,27 @@ def test_stage_records_are_written_with_their_version_and_old_ones_read(tmp_path
     assert stages.read_identity(tmp_path / "old" / stages.IDENTITY_FILE) == written
 
 
-def test_a_result_from_before_the_key_reads_as_today(tmp_path):
+def test_a_result_from_before_the_key_reads_as_today_and_is_written_with_it(tmp_path):
     path = tmp_path / results.RESULT
-    path.write_text(json.dumps({"evals": {}, "stages": {}}))
-    assert results.read_result(path)["format_version"] == FORMAT_VERSION
+    path.write_text(json.dumps({"evals": {}, "stages": {"mid": "run"}}))
+    result = results.read_result(path)
+    assert result == results.JobResult(stages={"mid": "run"}, job_dir=str(tmp_path))
+    results.write_result(path, result)
+    assert json.loads(path.read_text())["format_version"] == FORMAT_VERSION
+    assert results.read_result(path) == result
+
+
+def test_a_result_with_a_field_this_mapush_does_not_know_is_refused(tmp_path):
+    path = tmp_path / results.RESULT
+    path.write_text(json.dumps({"evals": {}, "stages": {}, "colour": "red"}))
+    with pytest.raises(BadInput, match="unknown fields \\['colour'\\]"):
+        results.read_result(path)
 
 
 def test_the_committed_results_all_read():
-    """Every result.json kept in git (results/jobs/) reads with this mapush."""
+    """Every result.json kept in git (results/jobs/) reads with this mapush, and writes back as it was read."""
     found = list((REPO / "results" / "jobs").glob("**/" + results.RESULT))
     assert found
-    assert all(results.read_result(p)["format_version"] == FORMAT_VERSION for p in found)
+    for path in found:
+        record = {k: v for k, v in json.loads(path.read_text()).items() if k != "format_version"}
+        assert results.read_result(path).record() == record

@@ -9,8 +9,8 @@ import shutil
 import pytest
 from stand_ins import stage_run
 
-from mapush.experiments.archive import ARCHIVED_FROM, archive_results, load_results
-from mapush.experiments.results import RESULT, SUPERSEDED
+from mapush.experiments.archive import archive_results, load_results
+from mapush.experiments.results import ARCHIVED_FROM, RESULT, SUPERSEDED
 from mapush.report.cost import measured_cost
 from mapush.report.main_table import main_table
 
@@ -64,7 +64,7 @@ def test_the_archive_keeps_the_cells_and_the_cost_when_the_runs_are_gone(runs, t
 
     shutil.rmtree(runs)
     after = load_results([archive])
-    assert [r["seed"] for r in after] == [0, 1]
+    assert [r.seed for r in after] == [0, 1]
     cost_after = measured_cost(after)
     assert cost_after["training_core_h"] == cost_before["training_core_h"]
     assert (cost_after["stages"], cost_after["stages_from_records"], cost_after["unreadable_stages"]) == (3, 3, 0)
@@ -84,14 +84,14 @@ def test_a_job_in_the_runs_and_the_archive_counts_once_the_newer_result(runs, tm
     (job / RESULT).write_text(json.dumps(newer))
 
     results = load_results([runs, archive])
-    assert [(r["seed"], r["evals"]["main"]["success_rate"]) for r in results] == [(0, 0.8), (1, 0.9)]
-    assert str(runs) in results[1]["job_dir"]  # the newer: still in the runs dir
-    assert str(runs) in results[0]["job_dir"]  # the same in both: the first root's
+    assert [(r.seed, r.evals["main"]["success_rate"]) for r in results] == [(0, 0.8), (1, 0.9)]
+    assert str(runs) in results[1].job_dir  # the newer: still in the runs dir
+    assert str(runs) in results[0].job_dir  # the same in both: the first root's
 
     archive_results(runs, archive)  # the rerun and the result it superseded both reach the archive
     shutil.rmtree(runs)
     results = load_results([archive])
-    assert results[1]["evals"]["main"]["success_rate"] == 0.9
+    assert results[1].evals["main"]["success_rate"] == 0.9
     assert measured_cost(results)["evaluated_again"] == 1
 
 
@@ -131,5 +131,5 @@ def test_an_archive_inside_the_runs_dir_is_read_once(runs):
     inside = runs / "archive"
     archive_results(runs, inside)
     assert archive_results(runs, inside) == ([], 2)  # its own copies are no jobs to archive
-    assert [r["seed"] for r in load_results([runs])] == [0, 1]
-    assert [r["seed"] for r in load_results([runs, inside])] == [0, 1]
+    assert [r.seed for r in load_results([runs])] == [0, 1]
+    assert [r.seed for r in load_results([runs, inside])] == [0, 1]

@@ -7,7 +7,7 @@ import datetime
 import os
 
 import pytest
-from stand_ins import stage_run
+from stand_ins import as_results, stage_run
 
 from mapush.experiments.stages import stage_core_seconds
 from mapush.logging.mcap_files import CPU_TAG, training_scalars
@@ -67,7 +67,7 @@ def test_a_training_records_each_iterations_cpu_seconds(smoke_run):
 
 
 def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
-    cost = measured_cost(two_jobs, cores=2)
+    cost = measured_cost(as_results(two_jobs), cores=2)
     # training: a 1800 + 3600 s x 1 thread = 1.5 core-h; b 3600 s x 2 threads = 2 core-h
     # evaluation: 1800 s x 2 threads (b's) = 1 core-h from file times; 900 s x 2 recorded threads = 0.5 core-h
     assert cost == {
@@ -91,12 +91,12 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
 
 def test_only_the_first_job_to_evaluate_a_stage_takes_its_time_from_file_times(two_jobs):
     reuser = {k: v for k, v in two_jobs[1].items() if k not in ("eval_wall_s", "threads")}  # an old reusing job
-    cost = measured_cost([two_jobs[0], reuser], cores=2)
+    cost = measured_cost(as_results([two_jobs[0], reuser]), cores=2)
     assert (cost["jobs"], cost["jobs_without_evaluation_time"], cost["evaluation_core_h"]) == (1, 1, 1.0)
 
 
 def test_the_cost_line_stands_under_the_table_and_in_its_sidecar(two_jobs):
-    cost = measured_cost(two_jobs, cores=2)
+    cost = measured_cost(as_results(two_jobs), cores=2)
     table = Table("t", "T", ["Task"], ["S.R."], [], cost=cost)
     line = (
         "Cost, measured from the runs (each stage once, each of its iterations once): training 3.5 core-hours over "
@@ -112,12 +112,12 @@ def test_jobs_that_ran_on_a_machine_of_other_cores_are_counted_and_said_apart(tw
     c = stage_run(tmp_path, "c", 1, [{0: (3000.0, 600.0)}])  # 1 core-h, trained on a lent 16-core machine
     lent = {"stages": {"high": str(c)}, "eval_wall_s": 1800.0, "threads": 1, "machine_cores": 16}
     here = [{**r, "machine_cores": 2} for r in two_jobs]  # 3.5 + 1.5 core-h, as above
-    cost = measured_cost([*here, lent, dict(lent)], cores=2)
+    cost = measured_cost(as_results([*here, lent, dict(lent)]), cores=2)
     # the two lent jobs share stage c: 1 core-h of training and 2 x 0.5 core-h of evaluation
     assert (cost["cores"], cost["other_machines"], cost["other_machines_core_h"]) == (2, {16: 2}, 2.0)
     assert cost["machine_h"] == 3.5  # (3.5 + 1.5 + 2.0) core-h / 2 cores
     assert "jobs run elsewhere: 2 on a 16-core machine; their 2.0 core-hours are counted as measured" in cost_line(cost)
-    assert "elsewhere" not in cost_line(measured_cost(here))  # the machine the jobs record: 2 cores
+    assert "elsewhere" not in cost_line(measured_cost(as_results(here)))  # the machine the jobs record: 2 cores
 
 
 def test_each_method_is_charged_what_it_added_and_the_parts_add_up_to_the_whole(two_jobs, tmp_path):
@@ -126,8 +126,8 @@ def test_each_method_is_charged_what_it_added_and_the_parts_add_up_to_the_whole(
     # a baseline reusing Ours' stage a (charged to Ours, the first to use it), training c, evaluating 1 core-h
     baseline = {"stages": {"mid": two_jobs[0]["stages"]["mid"], "high": str(c)}, "method_label": "SA"}
     baseline |= {"eval_wall_s": 3600.0, "threads": 1, "finished": "2026-01-01T14:00:00"}
-    assert cost_by([*ours, baseline], "method_label", cores=2) == {"Ours": 2.5, "SA": 1.0}
-    cost = measured_cost([*ours, baseline], cores=2) | {"by_method": {"Ours": 2.5, "SA": 1.0}}
+    assert cost_by(as_results([*ours, baseline]), "method_label", cores=2) == {"Ours": 2.5, "SA": 1.0}
+    cost = measured_cost(as_results([*ours, baseline]), cores=2) | {"by_method": {"Ours": 2.5, "SA": 1.0}}
     assert cost["machine_h"] == 3.5
     assert cost_line(cost).endswith(
         "3.5 hours of a 2-core machine with every core busy; by method, in hours of that machine: Ours 2.5, SA 1.0"
@@ -145,10 +145,16 @@ def test_a_table_that_shares_stages_with_another_is_charged_apart_what_it_adds_a
     ]
     # alone it costs a (1.5 core-h) + c (1) + its evaluations (2): 2.25 h of 2 cores; after the main table, a is
     # trained: (1 + 2) core-h = 1.5 h
-    assert measured_cost(scale, cores=2)["machine_h"] == 2.25
-    assert cost_after(scale, main, cores=2) == {"tables": ["main"], "shared_stages": 1, "machine_h": 1.5}
-    assert cost_after(main[:0] + scale[1:], main, cores=2) is None  # no stage shared: nothing to say apart
-    cost = measured_cost(scale, cores=2) | {"after": cost_after(scale, main, cores=2)}
+    assert measured_cost(as_results(scale), cores=2)["machine_h"] == 2.25
+    assert cost_after(as_results(scale), as_results(main), cores=2) == {
+        "tables": ["main"],
+        "shared_stages": 1,
+        "machine_h": 1.5,
+    }
+    assert cost_after(as_results(scale[1:]), as_results(main), cores=2) is None  # no stage shared: nothing to say apart
+    cost = measured_cost(as_results(scale), cores=2) | {
+        "after": cost_after(as_results(scale), as_results(main), cores=2)
+    }
     assert cost_line(cost).endswith(
         "2.2 hours of a 2-core machine with every core busy; run after the main table's jobs (1 stages shared), "
         "it adds 1.5 hours"
@@ -164,7 +170,7 @@ def test_stage_runs_are_found_under_the_sweep_root_or_counted_as_unreadable(two_
     relative = {"stages": {"mid": "runs/sweeps/stages/abc/mid/run"}, "eval_wall_s": 36.0, "threads": 1,
                 "job_dir": str(root / "main_quick" / "job"), "finished": "2026-01-01T12:00:00"}  # fmt: skip
     gone = {"stages": {"mid": str(tmp_path / "gone")}, "eval_wall_s": 10.0, "finished": "2026-01-01T12:00:00"}
-    cost = measured_cost([relative, gone], cores=1)
+    cost = measured_cost(as_results([relative, gone]), cores=1)
     # the relative stage is a's 5400 s on 1 thread; its job's 36 s; the missing stage and its job are left out
     assert (cost["stages"], cost["unreadable_stages"], cost["jobs"], cost["jobs_without_evaluation_time"]) == (
         1, 1, 1, 1)  # fmt: skip
@@ -179,11 +185,14 @@ def test_a_job_that_ran_again_counts_the_evaluations_of_its_earlier_result_too(t
     job.mkdir()
     (job / "result.superseded.json").write_text(json.dumps({**two_jobs[1], "eval_wall_s": 300.0}))
     again = {**two_jobs[1], "eval_wall_s": 120.0, "supersedes": "result.superseded.json", "job_dir": str(job)}
-    cost = measured_cost([again], cores=2)
+    cost = measured_cost(as_results([again]), cores=2)
     # the same two stages; evaluation (300 + 120 s) x 2 threads = 0.23 core-h over the job and its earlier result
     assert (cost["stages"], cost["jobs"], cost["evaluated_again"], cost["evaluation_core_h"]) == (2, 1, 1, 0.23)
     assert "1 jobs evaluated again after their experiment changed: both counted" in cost_line(cost)
-    assert measured_cost([{k: v for k, v in again.items() if k != "supersedes"}], cores=2)["evaluation_core_h"] == 0.07
+    assert (
+        measured_cost(as_results([{k: v for k, v in again.items() if k != "supersedes"}]), cores=2)["evaluation_core_h"]
+        == 0.07
+    )
 
 
 def test_an_earlier_result_of_other_stages_is_given_apart_not_counted(two_jobs, tmp_path):
@@ -197,7 +206,7 @@ def test_an_earlier_result_of_other_stages_is_given_apart_not_counted(two_jobs, 
     earlier = {**two_jobs[1], "stages": {**two_jobs[1]["stages"], "high": str(old)}, "eval_wall_s": 600.0}
     (job / "result.superseded.json").write_text(json.dumps(earlier))
     again = {**two_jobs[1], "supersedes": "result.superseded.json", "job_dir": str(job)}
-    cost = measured_cost([again], cores=2)
+    cost = measured_cost(as_results([again]), cores=2)
     # what stands: a (5400 s) and b (7200 core-s) trained, 900 s x 2 threads evaluated = 14400 core-s = 2.0 h of 2
     # cores; apart: the old high level 7200 core-s and its evaluation 1200 core-s = 8400 core-s = 1.17 h
     assert (cost["stages"], cost["jobs"], cost["machine_h"]) == (2, 1, 2.0)
@@ -215,5 +224,5 @@ def test_a_stage_adopted_into_a_new_identity_is_trained_once(tmp_path):
         "identity: 00000000000000bb\nadopted_from: {identity: 00000000000000aa}\n"
     )
     jobs = [{"stages": {"mid": str(run)}, "eval_wall_s": 0.0, "threads": 1} for run in (old, new)]
-    cost = measured_cost(jobs, cores=2)
+    cost = measured_cost(as_results(jobs), cores=2)
     assert (cost["stages"], cost["training_core_h"]) == (1, 1.0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from pathlib import Path
@@ -15,7 +16,7 @@ from mapush.errors import BadInput
 from mapush.experiments import archive, pipeline, stage_plan, stages
 from mapush.experiments.archive import made_otherwise
 from mapush.experiments.pipeline import run_job
-from mapush.experiments.results import RESULT, SUPERSEDED, read_result
+from mapush.experiments.results import RESULT, SUPERSEDED, JobResult, read_result
 from mapush.experiments.stage_plan import planned_stages, stage_budget
 from mapush.experiments.stages import compose_stage, identity_of
 from mapush.experiments.staleness import result_changes
@@ -364,7 +365,7 @@ def test_a_job_refuses_code_older_than_the_package_files_and_trains_nothing(tmp_
 
 def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp_path):
     cfg = _job_cfg(tmp_path)
-    result = _fake_result(cfg, {stage.name: stage.identity for stage in planned_stages(cfg)})
+    result = JobResult(**_fake_result(cfg, {stage.name: stage.identity for stage in planned_stages(cfg)}))
     assert result_changes(result, cfg, planned_stages(cfg)) is None
     longer = _job_cfg(tmp_path, "experiment.budgets.smoke.stages.high.env_steps=1600")
     changes = result_changes(result, longer, planned_stages(longer))
@@ -378,15 +379,15 @@ def test_a_result_made_otherwise_than_planned_now_is_told_from_its_job_dir(tmp_p
     now = {stage.name: stage.identity for stage in planned_stages(cfg)}
     job = {"experiment": "main", "budget": "smoke", "overrides": ["debug=smoke"]}
     job["job_dir"] = str(tmp_path / "main_smoke_debug-smoke" / "method=sa,seed=0,task=cylinder")
-    assert made_otherwise(_fake_result(cfg, now) | job) is None
-    earlier = _fake_result(cfg, {**now, "high": "0123456789abcdef"}) | job  # a high level of another recipe
+    assert made_otherwise(JobResult(**_fake_result(cfg, now) | job)) is None
+    earlier = JobResult(**_fake_result(cfg, {**now, "high": "0123456789abcdef"}) | job)  # of another recipe
     assert str(made_otherwise(earlier)) == f"its stages changed (high: 0123456789abcdef -> {now['high']})"
     # another job's axes (the seed) plan other stages than the result's
     other_seed = job | {"job_dir": job["job_dir"].replace("seed=0", "seed=1")}
-    assert str(made_otherwise(_fake_result(cfg, now) | other_seed)).startswith("its stages changed (")
+    assert str(made_otherwise(JobResult(**_fake_result(cfg, now) | other_seed))).startswith("its stages changed (")
     # nothing to tell: stage runs outside a store, or an experiment that no longer composes
-    assert made_otherwise({"stages": {"high": str(tmp_path / "run")}} | job) is None
-    assert made_otherwise(_fake_result(cfg, now) | job | {"experiment": "gone"}) is None
+    assert made_otherwise(JobResult(**{"stages": {"high": str(tmp_path / "run")}} | job)) is None
+    assert made_otherwise(JobResult(**_fake_result(cfg, now) | job | {"experiment": "gone"})) is None
 
 
 def test_what_tables_found_of_an_archived_job_is_kept_until_something_it_depends_on_changes(tmp_path, monkeypatch):
@@ -398,22 +399,22 @@ def test_what_tables_found_of_an_archived_job_is_kept_until_something_it_depends
     result |= {"experiment": "main", "budget": "smoke", "overrides": ["debug=smoke"]}
     (job_dir / RESULT).write_text(json.dumps(result))
     memo = tmp_path / "checked.json"
-    first = [result | {"job_dir": str(job_dir)}]
+    first = [JobResult(**result, job_dir=str(job_dir))]
     archive.made_otherwise_all(first, memo)
-    assert first[0]["made_otherwise"].stages == ("high",)
+    assert first[0].made_otherwise.stages == ("high",)
 
     def compose_again(result):
-        calls.append(result["job_dir"])
+        calls.append(result.job_dir)
         return None
 
     calls = []
     monkeypatch.setattr(archive, "made_otherwise", compose_again)
-    again = [result | {"job_dir": str(job_dir)}]
+    again = [JobResult(**result, job_dir=str(job_dir))]
     archive.made_otherwise_all(again, memo)
-    assert calls == [] and again[0]["made_otherwise"] == first[0]["made_otherwise"]  # found in the memo, alike
+    assert calls == [] and again[0].made_otherwise == first[0].made_otherwise  # found in the memo, alike
     (job_dir / RESULT).write_text(json.dumps(result | {"budget": "quick"}))  # the result changed: checked again
     archive.made_otherwise_all(again, memo)
-    assert calls == [str(job_dir)] and again[0]["made_otherwise"] is None
+    assert calls == [str(job_dir)] and again[0].made_otherwise is None
     record = stages.stage_dir(tmp_path, now["high"]) / stages.IDENTITY_FILE  # a stage record appears: again
     record.parent.mkdir(parents=True)
     record.write_text("identity: x\n")
@@ -434,9 +435,9 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert "kept (rerun_changed=true runs it again)" in capsys.readouterr().out
     again_cfg = compose_config([*longer, "rerun_changed=true"], config_name="sweep")
     again = run_job(again_cfg, job, 1)
-    assert json.loads((job / SUPERSEDED).read_text()) == first
-    assert identity_of(Path(again["stages"]["mid"])) == planned_stages(again_cfg)[0].identity
-    assert identity_of(Path(again["stages"]["mid"])) != identity_of(Path(first["stages"]["mid"]))
+    assert read_result(job / SUPERSEDED) == first
+    assert identity_of(Path(again.stages["mid"])) == planned_stages(again_cfg)[0].identity
+    assert identity_of(Path(again.stages["mid"])) != identity_of(Path(first.stages["mid"]))
     assert result_changes(again, again_cfg, planned_stages(again_cfg)) is None
     # an evaluation that changed is made again; what still holds (the other evaluation, the curve) is kept
     shorter = compose_config([*longer, "rerun_changed=true", "experiment.evals.t40=['level.episode_length_s=30']"],
@@ -445,34 +446,32 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert (change.kind, change.evaluation) == ("evaluation", "t40")
     assert str(change) == "evaluation 't40' changed (level.episode_length_s=40 -> level.episode_length_s=30)"
     assert change.concerns(again, "t40") and not change.concerns(again, "t20")
-    checkpoints = sorted(Path(again["stages"]["mid"]).glob("model_*.pt"))
+    checkpoints = sorted(Path(again.stages["mid"]).glob("model_*.pt"))
     third = run_job(shorter, job, 1)
-    assert third["evals"]["t20"] == again["evals"]["t20"] and third["curve"] == again["curve"]
-    assert third["evals"]["t40"]["timeout_s"] == 30.0 and third["evals"]["t40"]["overrides"] == [
-        "level.episode_length_s=30"
-    ]
-    assert sorted(Path(third["stages"]["mid"]).glob("model_*.pt")) == checkpoints  # nothing trained
-    assert third["supersedes"] == SUPERSEDED and json.loads((job / SUPERSEDED).read_text()) == again
+    assert third.evals["t20"] == again.evals["t20"] and third.curve == again.curve
+    assert third.evals["t40"]["timeout_s"] == 30.0 and third.evals["t40"]["overrides"] == ["level.episode_length_s=30"]
+    assert sorted(Path(third.stages["mid"]).glob("model_*.pt")) == checkpoints  # nothing trained
+    assert third.supersedes == SUPERSEDED and read_result(job / SUPERSEDED) == again
     # a legged evaluation names the locomotion policy that walked its robots; another one makes it stale
     legged = compose_config(
         [*longer, "rerun_changed=true", "experiment.evals.t40=['level.episode_length_s=30','lowlevel=go1']"],
         config_name="sweep",
     )
     fourth = run_job(legged, job, 1)
-    walker = fourth["evals"]["t40"]["lowlevel_policy"]
+    walker = fourth.evals["t40"]["lowlevel_policy"]
     shipped = Path(walker["file"])
     assert shipped.name == "policy.pt" and walker["sha256"] == hashlib.sha256(shipped.read_bytes()).hexdigest()[:16]
-    assert "lowlevel_policy" not in fourth["evals"]["t20"]  # the tracker has no policy
+    assert "lowlevel_policy" not in fourth.evals["t20"]  # the tracker has no policy
     assert result_changes(fourth, legged, planned_stages(legged)) is None
-    gone = {name: str(tmp_path / "gone" / Path(path).relative_to(tmp_path)) for name, path in fourth["stages"].items()}
-    elsewhere = {**fourth, "stages": gone}  # the same stages' runs, on a machine that is not this one
-    elsewhere["evals"] = {**fourth["evals"], "t40": {**fourth["evals"]["t40"]}}
-    elsewhere["evals"]["t40"]["lowlevel_policy"] = {**walker, "file": "/another/checkout/policy.pt"}
+    gone = {name: str(tmp_path / "gone" / Path(path).relative_to(tmp_path)) for name, path in fourth.stages.items()}
+    elsewhere = dataclasses.replace(fourth, stages=gone)  # the same stages' runs, on a machine that is not this one
+    elsewhere.evals = {**fourth.evals, "t40": {**fourth.evals["t40"]}}
+    elsewhere.evals["t40"]["lowlevel_policy"] = {**walker, "file": "/another/checkout/policy.pt"}
     assert result_changes(elsewhere, legged, planned_stages(legged)) is None  # the same policy in another checkout
-    fourth["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # as if the shipped policy had been replaced
+    fourth.evals["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # as if the shipped policy had been replaced
     stale = "evaluation 't40' walked its robots with another locomotion policy than now"
     assert str(result_changes(fourth, legged, planned_stages(legged))) == stale
-    elsewhere["evals"]["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # and its runs gone: the plan says which
+    elsewhere.evals["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # and its runs gone: the plan says which
     assert str(result_changes(elsewhere, legged, planned_stages(legged))) == stale
 
 

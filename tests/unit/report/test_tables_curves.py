@@ -3,6 +3,7 @@ the curves plot; from fixture job results with hand-made curves."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -10,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mapush.eval.curve_points import tail_gain
-from mapush.experiments.results import RESULT
+from mapush.experiments.results import RESULT, JobResult
 from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, latex, markdown, sidecar
 
 RULE = {"tail": 0.2, "max_gain": 0.03}
@@ -65,7 +66,7 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
 
     def result(rates):
         points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
-        return {"curve": {"rule": RULE, "points": points}}
+        return JobResult(curve={"rule": RULE, "points": points})
 
     # last fifth: 0.80 -> 0.70 and 0.90 -> 0.86: -7.0 +- 3.0 points; mean curve 0.65, 0.9, 0.85, 0.85, 0.78
     falling = [result([0.6, 0.9, 0.8, 0.8, 0.7]), result([0.7, 0.9, 0.9, 0.9, 0.86])]
@@ -85,7 +86,7 @@ def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
 
     def result(rates):
         points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
-        return {"curve": {"rule": RULE, "points": points}}
+        return JobResult(curve={"rule": RULE, "points": points})
 
     never = budget_verdict("H+L", [result([0.0] * 5), result([0.0] * 5)])
     assert never.holds is False and str(never) == (
@@ -133,7 +134,7 @@ def test_the_main_tables_findings_from_hand_made_results():
 
     def job(method, seed, evals):
         ev = {k: {"success_rate": sr, "completion_time": ct, "timeout_s": 160.0} for k, (sr, ct) in evals.items()}
-        return {"method": method, "task": "cuboid", "seed": seed, "evals": ev, "job_dir": f"{method}{seed}"}
+        return JobResult(method=method, task="cuboid", seed=seed, evals=ev, job_dir=f"{method}{seed}")
 
     results = [
         job("ours", 0, {"main": (0.80, 0.50), "path_only": (0.90, 0.45), "go1": (0.75, 0.6)}),
@@ -168,7 +169,7 @@ def test_the_main_tables_findings_from_hand_made_results():
     # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
     assert len(found) == 9 and found[8].holds is False
     assert found[8].numbers == pytest.approx({"baseline_sr": 65.0, "ours_sr": 65.0})
-    results[3]["evals"]["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
+    results[3].evals["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
     assert _main_findings(results, PAPER["main"], "cuboid")[8].holds is True
     assert _main_findings(results, PAPER["main"], "tblock") == []
 
@@ -183,8 +184,8 @@ def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
             "exceptions": {"robot_collision": collision, "robot_tilt": robot_tilt, "diverged": 0.0},
         }
         main = {"success_rate": 0.8, "completion_time": 0.5}
-        return {"method": "ours", "task": "cuboid", "seed": seed, "evals": {"main": main, "go1": go1},
-                "job_dir": f"ours{seed}"}  # fmt: skip
+        return JobResult(method="ours", task="cuboid", seed=seed, evals={"main": main, "go1": go1},
+                         job_dir=f"ours{seed}")  # fmt: skip
 
     found = _main_findings([job(0, 0.5, 0.40, 0.02), job(1, 0.4, 0.30, 0.0)], PAPER["main"], "cuboid")
     # 80 - 45 = 35 points; robot_tilt (40 + 30) / 2 = 35 %, robot_collision (2 + 0) / 2 = 1 %, diverged left out
@@ -224,17 +225,17 @@ def test_a_job_with_one_stale_evaluation_or_stage_marks_only_the_cells_made_of_i
     from mapush.experiments.staleness import Change
     from mapush.report.cells import collect as _collect
 
-    def job(name: str, change: Change) -> dict:
+    def job(name: str, change: Change) -> JobResult:
         stages = {"mid": "stages/m1/mid/run", "high": "stages/h1/high/run"}
         evals = {
             "main": {"success_rate": 0.8, "checkpoint": "stages/h1/high/run/model_48.pt"},
             "go1": {"success_rate": 0.5, "checkpoint": "stages/h1/high/run/model_48.pt"},
             "mid": {"success_rate": 0.7, "checkpoint": "stages/m1/mid/run/model_999.pt"},
         }
-        return {"job_dir": name, "method": "ours", "stages": stages, "evals": evals, "made_otherwise": change}
+        return JobResult(job_dir=name, method="ours", stages=stages, evals=evals, made_otherwise=change)
 
-    def marked(result: dict) -> set[str]:
-        return {name for name in result["evals"] if _collect([result], "success_rate", 100.0, eval=name).otherwise}
+    def marked(result: JobResult) -> set[str]:
+        return {name for name in result.evals if _collect([result], "success_rate", 100.0, eval=name).otherwise}
 
     assert marked(job("a", Change("evaluation", "walked another way", evaluation="go1"))) == {"go1"}
     # the high level retrained on the same mid level: the mid level's own cells stand
@@ -289,8 +290,8 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
         6: ((0.95, 0.95), 0.3, (0.99, 0.99)),
     }
     results = [
-        {"job_dir": f"agents={n},seed={seed}", "table": "scale", "variant": "quick", "num_agents": n, "seed": seed,
-         "evals": {"main": {"success_rate": sr[seed], "completion_time": ct}, "mid": {"success_rate": mid[seed]}}}
+        JobResult(job_dir=f"agents={n},seed={seed}", table="scale", variant="quick", num_agents=n, seed=seed,
+                  evals={"main": {"success_rate": sr[seed], "completion_time": ct}, "mid": {"success_rate": mid[seed]}})
         for n, (sr, ct, mid) in made.items() for seed in (0, 1)
     ]  # fmt: skip
     findings = scale_table(results, "quick").findings
@@ -312,7 +313,7 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
     assert str(findings[0]) == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)" and findings[0].holds is None
     # 6 robots brought down to 3 robots' mean: a tie, named as one
     main = {"success_rate": 0.85, "completion_time": 0.3}
-    tied = [{**r, "evals": {**r["evals"], "main": main}} if r["num_agents"] == 6 else r for r in results]
+    tied = [dataclasses.replace(r, evals={**r.evals, "main": main}) if r.num_agents == 6 else r for r in results]
     best = "Best robot count here: 3 (85.0 \u00b1 5.0 % S.R.) and 6 (85.0 \u00b1 0.0 % S.R.), tied"
     assert str(scale_table(tied, "quick").findings[0]) == best
 
@@ -323,9 +324,13 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
 
     # cuboid: one robot pushes 2 and 8 kg (90 %), two robots 24 kg, nobody 64 kg; the cylinder has no job yet
     rates = {1: (0.9, 0.9, 0.1, 0.0), 2: (0.9, 0.9, 0.8, 0.2), 3: (0.9, 0.9, 0.9, 0.3), 4: (0.8, 0.8, 0.9, 0.4)}
+
+    def evals(made):
+        return {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 8, 24, 64), made, strict=True)}
+
     results = [
-        {"job_dir": f"agents={n},seed={seed}", "table": "team", "variant": "quick", "num_agents": n, "seed": seed,
-         "task": "cuboid", "evals": {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 8, 24, 64), made, strict=True)}}
+        JobResult(job_dir=f"agents={n},seed={seed}", table="team", variant="quick", num_agents=n, seed=seed,
+                  task="cuboid", evals=evals(made))
         for n, made in rates.items() for seed in (0, 1)
     ]  # fmt: skip
     table = team_table(results, "quick")
