@@ -1,0 +1,27 @@
+"""The tables in results/ are what `mapush tables` makes of the archived results in results/jobs/ with this code:
+none is typed in or left behind by older code."""
+
+from __future__ import annotations
+
+import shutil
+
+from paths import REPO
+
+RESULTS = REPO / "results"
+TEXT_SUFFIXES = (".md", ".csv", ".tex", ".json")
+
+
+def test_the_committed_tables_are_regenerated_from_the_archive_as_they_are(cli, tmp_path):
+    # as a fresh clone runs it, from its root: the archive at results/jobs, no runs/ (the cells name their sources
+    # by the path given, and a stage run found under runs/ would be measured instead of its record)
+    shutil.copytree(RESULTS / "jobs", tmp_path / "results" / "jobs")
+    out = tmp_path / "out"
+    out.mkdir()
+    shutil.copyfile(RESULTS / "jobs_checked.json", out / "jobs_checked.json")  # what the last run found: its memo
+    proc = cli("tables", "--runs", "results/jobs", "--out", out, "--overwrite")
+    assert proc.returncode == 0, proc.stderr
+    made = sorted(p.name for p in out.iterdir() if p.suffix in TEXT_SUFFIXES and p.name != "jobs_checked.json")
+    assert made, proc.stdout
+    for name in made:
+        assert (RESULTS / name).is_file(), f"results/{name} is made by mapush tables but not committed"
+        assert (out / name).read_text() == (RESULTS / name).read_text(), f"results/{name} differs from what it makes"
