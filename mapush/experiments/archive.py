@@ -29,6 +29,7 @@ from mapush.errors import BadInput
 from mapush.experiments.results import (
     RESULT,
     SUPERSEDED,
+    Change,
     JobResult,
     every_stage_override,
     read_result,
@@ -37,7 +38,7 @@ from mapush.experiments.results import (
 )
 from mapush.experiments.stage_plan import PlannedStage, planned_stages
 from mapush.experiments.stages import IDENTITY_FILE, STORE, identity_of, stage_dir, stands_for, store_root
-from mapush.experiments.staleness import Change, result_changes
+from mapush.experiments.staleness import result_changes
 
 ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""

@@ -8,15 +8,12 @@ import dataclasses
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Literal
 
 from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.migrations import stamp, upgrade
-
-if TYPE_CHECKING:
-    from mapush.experiments.staleness import Change
 
 RESULT = "result.json"
 """A finished job's record, written by `run_job`, read by `read_result`."""
@@ -26,6 +23,38 @@ SUPERSEDED = "result.superseded.json"
 
 ARCHIVED_FROM = "archived_from"
 """The field of an archived result that names the job dir it was copied from (`mapush archive`)."""
+
+
+@dataclass(frozen=True)
+class Change:
+    """Why a finished result no longer stands for what its experiment plans now (`result_changes`): `kind`, the
+    stages whose identity changed (`stages`, in the plan's order) or the one evaluation it is about
+    (`evaluation`), and `text`, the change in words as the sweep and the tables print it."""
+
+    kind: Literal["stages", "evaluations", "evaluation", "curve"]
+    text: str
+    stages: tuple[str, ...] = ()
+    evaluation: str | None = None
+
+    def __str__(self) -> str:
+        return self.text
+
+    @classmethod
+    def from_record(cls, record: dict | None) -> Change | None:
+        """A change as `dataclasses.asdict` wrote it to JSON (its stages a list), None for none."""
+        return record and cls(**{**record, "stages": tuple(record["stages"])})
+
+    def concerns(self, result: JobResult, name: str) -> bool:
+        """Whether the change concerns the result's evaluation `name`, so that a table marks its cells: a changed
+        evaluation concerns only itself; changed stages concern the evaluations of those stages and of every stage
+        after them in the plan (trained on them), not a mid level evaluated alone whose high level alone changed;
+        any other change (the set of evaluations, the curve) the whole job."""
+        if self.kind == "evaluation":
+            return self.evaluation == name
+        order, evaluated = list(result.stages), result.evaluated_stage(name)
+        if self.kind != "stages" or evaluated is None:
+            return True
+        return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in self.stages)
 
 
 @dataclass
@@ -79,6 +108,11 @@ class JobResult:
             for f in dataclasses.fields(self)
             if f.metadata.get("in_file", True) and not (f.name in optional and getattr(self, f.name) is None)
         }
+
+    def evaluated_stage(self, name: str) -> str | None:
+        """The stage whose run its evaluation `name` loaded the checkpoint from, None when none is named."""
+        checkpoint = Path(self.evals.get(name, {}).get("checkpoint", ""))
+        return next((stage for stage, run in self.stages.items() if Path(run) in checkpoint.parents), None)
 
     def stage_runs(self) -> list[Path]:
         """The run dirs of its stages, in training order (`stages.stage_paths`)."""

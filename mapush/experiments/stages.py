@@ -23,7 +23,6 @@ import os
 import shutil
 import statistics
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from omegaconf import OmegaConf
 
@@ -32,9 +31,6 @@ from mapush.config import compose_config, env_steps_per_iteration, load_run_conf
 from mapush.logging.mcap_files import CPU_TAG, THREADS_TAG, training_scalars
 from mapush.migrations import UNSET_LATER_KEYS, stamp, upgrade
 from mapush.rundir import POLICY_FILE, checkpoint_iteration, checkpoints, find_runs
-
-if TYPE_CHECKING:
-    from mapush.experiments.results import JobResult
 
 STORE = "stages"
 """The store's folder under `sweep_root`."""
@@ -160,7 +156,7 @@ def shape(cfg: dict) -> tuple:
             cfg["lowlevel"]["name"])  # fmt: skip
 
 
-def cost_per_env_step(results: list[JobResult], roots: list[Path]) -> dict[tuple, float]:
+def cost_per_env_step(results: list, roots: list[Path]) -> dict[tuple, float]:
     """Measured training core-seconds per env-step of each stage `shape`, pooled over the distinct stages behind
     `results` (their `stage_core_s`) whose `stage.yaml` lies in the store of one of the `roots` (sweep roots or
     archives): what `mapush sweep --dry-run` estimates the stages it will train from."""

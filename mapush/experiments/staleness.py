@@ -1,54 +1,18 @@
 """Whether a job's finished `result.json` still stands for what its experiment plans now: the same stages, the
-same evaluations, the same locomotion policy walking its legged evaluations (`result_changes`, `still_valid`), and
-which of a result's evaluations a change concerns (`Change.concerns`)."""
+same evaluations, the same locomotion policy walking its legged evaluations (`result_changes`, `still_valid`).
+What it finds is a `Change` (`results.py`), which says which of a result's evaluations it concerns."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
 
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.experiments import stages
+from mapush.experiments.results import Change, JobResult
 from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, eval_overrides, eval_stage, evaluated_stage
 from mapush.lowlevel import backend_of
-
-if TYPE_CHECKING:
-    from mapush.experiments.results import JobResult
-
-
-@dataclass(frozen=True)
-class Change:
-    """Why a finished result no longer stands for what its experiment plans now (`result_changes`): `kind`, the
-    stages whose identity changed (`stages`, in the plan's order) or the one evaluation it is about
-    (`evaluation`), and `text`, the change in words as the sweep and the tables print it."""
-
-    kind: Literal["stages", "evaluations", "evaluation", "curve"]
-    text: str
-    stages: tuple[str, ...] = ()
-    evaluation: str | None = None
-
-    def __str__(self) -> str:
-        return self.text
-
-    @classmethod
-    def from_record(cls, record: dict | None) -> Change | None:
-        """A change as `dataclasses.asdict` wrote it to JSON (its stages a list), None for none."""
-        return record and cls(**{**record, "stages": tuple(record["stages"])})
-
-    def concerns(self, result: JobResult, name: str) -> bool:
-        """Whether the change concerns the result's evaluation `name`, so that a table marks its cells: a changed
-        evaluation concerns only itself; changed stages concern the evaluations of those stages and of every stage
-        after them in the plan (trained on them), not a mid level evaluated alone whose high level alone changed;
-        any other change (the set of evaluations, the curve) the whole job."""
-        if self.kind == "evaluation":
-            return self.evaluation == name
-        order, evaluated = list(result.stages), _evaluated_stage(result, name)
-        if self.kind != "stages" or evaluated is None:
-            return True
-        return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in self.stages)
 
 
 def still_valid(result: JobResult, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
@@ -106,12 +70,6 @@ def _about_stages(changed: dict[str, tuple[str | None, str | None]]) -> Change:
     """A change of the stages whose identity changed (name: made -> planned), in the plan's order."""
     text = ", ".join(f"{name}: {was} -> {now}" for name, (was, now) in changed.items())
     return Change("stages", f"its stages changed ({text})", stages=tuple(changed))
-
-
-def _evaluated_stage(result: JobResult, name: str) -> str | None:
-    """The stage whose run evaluation `name` of `result` loaded its checkpoint from, None when none is named."""
-    checkpoint = Path(result.evals.get(name, {}).get("checkpoint", ""))
-    return next((stage for stage, run in result.stages.items() if Path(run) in checkpoint.parents), None)
 
 
 def result_changes(

@@ -179,12 +179,12 @@ def _check_launcher_plugin(launcher: str) -> None:
 
 
 def job_combos(overrides: list[str], seeds: bool = True) -> list[list[str]]:
-    """Every job of a sweep as its list of `key=value` axis overrides (`seeds=False`: one job per seed set)."""
+    """Every job of a sweep as its list of `key=value` axis overrides (`seeds=False`: the first seed's jobs only)."""
     combos: list[list[str]] = [[]]
     for key, values in _split_axes(overrides).items():
-        if key == "launcher" or key.startswith("hydra") or (key == "seed" and not seeds):
+        if key == "launcher" or key.startswith("hydra"):
             continue
-        combos = [[*c, f"{key}={v}"] for c in combos for v in values]
+        combos = [[*c, f"{key}={v}"] for c in combos for v in (values if seeds or key != "seed" else values[:1])]
     return combos
 
 
@@ -193,9 +193,10 @@ def _check_jobs(overrides: list[str]) -> None:
     from mapush.levels import env_class  # the envs (PyTorch): loaded once the sweep's names are known good
 
     checked: set[tuple[str, ...]] = set()
-    for combo in job_combos(overrides, seeds=False):  # the seed changes no stage's validity
+    # the seed changes no stage's validity; the first seed's configs, composed here, are those a dry run plans next
+    for combo in job_combos(overrides, seeds=False):
         for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):
-            key = tuple(o for o in stage_overrides if STAGE_REF not in o)
+            key = tuple(o for o in stage_overrides if not o.partition("=")[2].startswith(STAGE_REF))
             if key not in checked:
                 checked.add(key)
                 plain = to_plain(compose_config(list(key)))

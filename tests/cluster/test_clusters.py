@@ -21,6 +21,8 @@ from paths import REPO
 
 from mapush.experiments.results import RESULT
 
+pytestmark = pytest.mark.xdist_group("clusters")  # one test process starts and stops the clusters, one at a time
+
 SLURM_LOCAL = REPO / "tools" / "slurm_local.sh"
 SLURM_CONF = Path("/etc/slurm/slurm.conf")
 SMOKE_SWEEP = ["experiment=ocb_ablation", "budget=smoke", "debug=smoke", "seed=0", "method=ours,ours_no_ocb"]

@@ -20,6 +20,7 @@ SMOKE = ["debug=smoke", "num_envs=3"]
 SHORT = ["debug=smoke", "num_envs=2", "level.episode_length_s=0.1"]  # 5 steps of 0.02 s
 
 
+@pytest.mark.slow
 def test_make_env_and_load_policy_of_a_smoke_run_step_together(smoke_run):
     env = mapush.make_env(SMOKE)
     policy = mapush.load_policy(smoke_run)
@@ -51,6 +52,7 @@ def test_make_env_checks_values_and_the_mid_level_before_building():
 
 
 @pytest.mark.parametrize("level", ["mid", "high"])
+@pytest.mark.slow
 def test_the_vector_views_spaces_hold_what_reset_and_step_return(level, smoke_run):
     overrides = SMOKE if level == "mid" else [*SMOKE, "level=high", f"mid={smoke_run}"]
     env = mapush.VectorEnv(mapush.make_env(overrides))

@@ -44,6 +44,7 @@ def test_unknown_key_exits_2_with_one_line_naming_it(train_bad, override, unknow
     assert_bad_input(train_bad(override), f"'{unknown}'")
 
 
+@pytest.mark.slow
 def test_a_randomized_range_that_is_not_one(train_bad):
     assert_bad_input(
         train_bad("lowlevel.randomize={lag:[0.3,0.1]}"), "lowlevel.randomize.lag=[0.3, 0.1]", "0 < low <= high"
@@ -51,6 +52,7 @@ def test_a_randomized_range_that_is_not_one(train_bad):
 
 
 @pytest.mark.parametrize("num_agents", [40, 0])
+@pytest.mark.slow
 def test_agent_count_that_does_not_fit_the_spawn_ring(train_bad, num_agents):
     # cuboid ring r = 1.2 m, robots >= 0.75 m apart: at most 9
     assert_bad_input(train_bad(f"task.num_agents={num_agents}"), f"task.num_agents={num_agents}", "valid: 1 to 9")
@@ -72,6 +74,7 @@ def test_eval_of_a_missing_run_dir(cli, tmp_path):
     assert_bad_input(cli("eval", tmp_path / "nowhere"), "nowhere", "valid: a run dir")
 
 
+@pytest.mark.slow
 def test_eval_with_another_agent_count_than_the_checkpoint(cli, run_copy, snapshot):
     # trained with 2 agents: a 10-d local observation; 3 agents give 6 + 4 * 2 = 14-d
     before = snapshot(run_copy)
@@ -79,6 +82,7 @@ def test_eval_with_another_agent_count_than_the_checkpoint(cli, run_copy, snapsh
     assert snapshot(run_copy) == before
 
 
+@pytest.mark.slow
 def test_eval_with_another_agent_count_names_the_trained_count(cli, run_copy):
     assert_bad_input(cli("eval", run_copy, "task.num_agents=3"), "task.num_agents=2")
 
@@ -130,6 +134,7 @@ def test_resume_with_another_override_than_the_iteration_count(cli, run_copy, sn
         ("task.object.hull=[[0,0],[1,0],[2,0]]", "encloses no area"),
     ],
 )
+@pytest.mark.slow
 def test_physically_meaningless_number(train_bad, override, valid):
     key = override.partition("=")[0].replace(".0.", "[0].") if ".parts." in override else override.partition("=")[0]
     assert_bad_input(train_bad(override), key, valid)
@@ -154,6 +159,7 @@ def test_eval_parses_values_as_train_does(cli, run_copy, snapshot):
     ],
 )
 @pytest.mark.parametrize("command", ["eval", "resume"])
+@pytest.mark.slow
 def test_a_run_dir_whose_config_names_foreign_code_is_refused_and_runs_nothing(
     cli, run_copy, snapshot, tmp_path, node, entry, command
 ):
@@ -181,6 +187,7 @@ def test_a_run_dir_whose_config_names_foreign_code_is_refused_and_runs_nothing(
     assert snapshot(run_copy) == before
 
 
+@pytest.mark.slow
 def test_a_module_the_user_trusts_on_the_command_line_may_be_named(cli, tmp_path, monkeypatch):
     """`mapush --trust MODULE` lets a config name that module's terms (here a reward term of the user's own)."""
     (tmp_path / "my_terms.py").write_text("def still(env):\n    return env.state.robot_xy[..., 0] * 0\n")
@@ -221,12 +228,14 @@ def test_a_run_whose_config_yaml_is_torn_or_empty_is_one_line(cli, run_copy, sna
     assert snapshot(run_copy) == before
 
 
+@pytest.mark.slow
 def test_a_locomotion_policy_that_is_not_torchscript_is_one_line(train_bad, tmp_path):
     fake = tmp_path / "policy.pt"
     fake.write_bytes(b"not a zip archive")
     assert_bad_input(train_bad("lowlevel=go1", f"lowlevel.policy={fake}"), "is not a TorchScript policy", "valid:")
 
 
+@pytest.mark.slow
 def test_more_envs_than_memory_holds_is_one_line_naming_the_most(train_bad):
     line = assert_bad_input(train_bad("num_envs=100000000"), "num_envs=100000000", "GiB", "valid: num_envs <=")
     most = int(line.rpartition("<= ")[2])

@@ -100,6 +100,7 @@ def test_bench_learn_trains_evaluates_and_draws_its_curve(cli, tmp_path):
     assert (tmp_path / result["run_dir"]).is_dir()
 
 
+@pytest.mark.slow
 def test_bench_learn_refuses_a_non_positive_time(cli, tmp_path):
     proc = cli("bench", "--learn", "--minutes", "0", "debug=smoke")
     assert proc.returncode == 2 and "--minutes 0.0 must be positive" in proc.stderr

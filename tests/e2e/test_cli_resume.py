@@ -27,6 +27,7 @@ def resumed(run_cli, smoke_run, tmp_path_factory):
     return run_dir
 
 
+@pytest.mark.slow
 def test_resume_writes_the_next_checkpoints(resumed):
     assert sorted(p.name for p in resumed.glob("model_*.pt")) == [
         "model_0.pt",
@@ -37,6 +38,7 @@ def test_resume_writes_the_next_checkpoints(resumed):
     assert torch.load(resumed / "model_3.pt", weights_only=False)["iter"] == 3
 
 
+@pytest.mark.slow
 def test_resume_does_not_repeat_the_loaded_iteration(resumed):
     # the first run logged iterations 0, 1; the resumed one 2, 3 into a new metrics file
     assert iterations_logged(resumed / "metrics.mcap") == {0, 1}
@@ -60,6 +62,7 @@ def test_resume_starts_from_the_last_checkpoint_weights(resumed):
     assert any(not torch.equal(one[k], two[k]) for k in one)
 
 
+@pytest.mark.slow
 def test_resuming_a_finished_run_is_refused_and_writes_no_new_checkpoint(cli, run_copy):
     proc = cli("train", "--resume", run_copy)
     assert proc.returncode == 2, proc.stderr
@@ -67,6 +70,7 @@ def test_resuming_a_finished_run_is_refused_and_writes_no_new_checkpoint(cli, ru
     assert sorted(p.name for p in run_copy.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]
 
 
+@pytest.mark.slow
 def test_resuming_a_run_cut_before_its_export_exports_it(cli, run_copy):
     exported = {name: (run_copy / name).read_bytes() for name in ("policy.pt", "policy.onnx")}
     for name in exported:

@@ -82,6 +82,7 @@ def test_eval_writes_success_rate_and_completion_time(cli, run_copy):
     assert str(run_copy / "eval.json") in proc.stdout
 
 
+@pytest.mark.slow
 def test_eval_takes_episodes_seeds_and_a_name(cli, run_copy):
     before = sorted(p.name for p in run_copy.iterdir())
     proc = cli("eval", run_copy / "model_0.pt", "--episodes", "3", "--seeds", "4,5", "--name", "other_seeds")

@@ -49,6 +49,7 @@ def test_a_high_level_ships_with_its_mid_level_and_evaluates_from_anywhere(cli, 
     assert again.returncode == 0, again.stderr
 
 
+@pytest.mark.slow
 def test_shipping_an_unfinished_run_is_refused_and_writes_nothing(cli, run_copy, tmp_path):
     (run_copy / "policy.pt").unlink()
     out = tmp_path / "out"
@@ -63,6 +64,7 @@ def test_an_unknown_shipped_name_lists_the_shipped_ones(cli):
 
 
 @pytest.mark.parametrize("name", shipped_names())
+@pytest.mark.slow
 def test_every_shipped_policy_loads_and_runs_one_episode_without_writing_into_the_package(cli, name, tmp_path):
     before = {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")}
     # one whole episode, cut to 20 s (a high level's 160 s would take 10-15 s of CPU); its eval file is named so
@@ -74,6 +76,7 @@ def test_every_shipped_policy_loads_and_runs_one_episode_without_writing_into_th
 
 
 @pytest.mark.parametrize("name", HIERARCHIES)
+@pytest.mark.slow
 def test_a_shipped_hierarchy_with_another_agent_count_is_refused(cli, name):
     proc = cli("eval", f"shipped:{name}", "task.num_agents=5")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1

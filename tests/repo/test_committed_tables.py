@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import shutil
 
+import pytest
 from paths import REPO
 
 RESULTS = REPO / "results"
 TEXT_SUFFIXES = (".md", ".csv", ".tex", ".json")
 
 
+@pytest.mark.slow  # a minute and more after a code change (each archived job is checked again), seconds after
 def test_the_committed_tables_are_regenerated_from_the_archive_as_they_are(cli, tmp_path):
     # as a fresh clone runs it, from its root: the archive at results/jobs, no runs/ (the cells name their sources
     # by the path given, and a stage run found under runs/ would be measured instead of its record)

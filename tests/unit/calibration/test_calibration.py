@@ -68,6 +68,7 @@ def test_no_fall_gives_no_curve():
     assert capacity.fit_fall_curve(load, np.zeros(load.shape, dtype=bool)) is None
 
 
+@pytest.mark.slow
 def test_calibrating_the_tracker_against_itself_recovers_its_lag_and_capacity(cli, tmp_path):
     """The tracker pushes at most min(max_force, mass / lag x 0.5 m/s) at a standstill: the capacity measured is
     that, less the stall speed's share; without a fall model it cannot fall, so no fall curve is written."""
@@ -89,6 +90,7 @@ def test_calibrating_the_tracker_against_itself_recovers_its_lag_and_capacity(cl
     assert (tmp_path / "cal" / "calibration.png").stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_without_config_the_measured_tracker_goes_beside_the_record_and_the_package_stays(cli, tmp_path):
     package = default_config_path().read_text()
     proc = cli("calibrate", "lowlevel=tracker", "--duration", "0.5", "--settle", "0", "--repeats", "1",
@@ -125,6 +127,7 @@ def test_a_robot_that_moves_nothing_has_no_push_gain():
     assert capacity.fit_push_gain(drag, np.zeros(drag.shape)) is None
 
 
+@pytest.mark.slow
 def test_the_contact_fall_midpoint_is_the_lowest_at_which_the_tracker_falls_pushing_no_more_than_the_go1():
     """Against a Go1 that never fell pushing, the fit's midpoint keeps the tracker up in the push sweep, and a
     midpoint a newton lower does not."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from omegaconf import OmegaConf
 from stand_ins import assert_bad_input
 
@@ -21,6 +22,7 @@ def _my_task(root: Path) -> Path:
     return root
 
 
+@pytest.mark.slow
 def test_a_task_from_a_directory_of_yours_trains_and_evaluates(cli, tmp_path):
     mine = _my_task(tmp_path / "my_configs")
     runs = tmp_path / "runs"
@@ -38,3 +40,17 @@ def test_without_the_searchpath_the_task_is_unknown_and_the_message_says_how(cli
     _my_task(tmp_path / "my_configs")
     proc = cli("train", "task=long_box", "debug=smoke", f"train.run_root={tmp_path / 'runs'}")
     assert_bad_input(proc, "unknown task 'long_box'", "hydra.searchpath", "cuboid")
+
+
+def test_a_config_composed_again_is_a_copy_and_follows_its_file_when_it_changes(tmp_path):
+    from mapush.config import compose_config
+
+    mine = _my_task(tmp_path / "my_configs")
+    overrides = [f"hydra.searchpath=[file://{mine}]", "task=long_box"]
+    first = compose_config(overrides)
+    first.task.object.parts[0].size[0] = 9.0  # a caller's edit stays in its own copy
+    assert compose_config(overrides).task.object.parts[0].size[0] == 2.0
+    task = OmegaConf.load(mine / "task" / "long_box.yaml")
+    task.object.parts[0].size[0] = 3.25
+    OmegaConf.save(task, mine / "task" / "long_box.yaml")
+    assert compose_config(overrides).task.object.parts[0].size[0] == 3.25

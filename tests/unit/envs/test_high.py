@@ -94,6 +94,7 @@ def test_a_planner_failure_ends_the_episode_as_a_failure(high_cfg, mid):
 
 
 @pytest.mark.parametrize("evaluation", [False, True])
+@pytest.mark.slow
 def test_training_plans_its_paths_on_evaluation_maps_unless_told_not_to(high_cfg, evaluation):
     from mapush.levels import make_env
 
@@ -166,6 +167,7 @@ def test_two_iteration_high_level_training_through_the_cli(cli, smoke_run, tmp_p
         ("SMOKE", ["task.num_agents=3"], "not cuboid with 3; valid: a mid run of task=cuboid task.num_agents=3"),
     ],
 )
+@pytest.mark.slow
 def test_a_missing_or_mismatched_mid_level_is_bad_input(cli, smoke_run, tmp_path, mid_arg, extra, message):
     args = ["train", "level=high", "debug=smoke", f"train.run_root={tmp_path}", *extra]
     if mid_arg:

@@ -197,6 +197,7 @@ def test_an_experiments_own_overrides_reach_every_stage_and_its_evaluations_set_
         assert spec.overrides[0] == "task.object.mass_range=null" and spec.overrides[1].startswith("task.object.mass=")
 
 
+@pytest.mark.slow
 def test_reproduce_plans_every_experiment_and_refuses_an_experiment_override(cli, tmp_path):
     root = tmp_path / "sweeps"
     proc = cli("reproduce", "--dry-run", *SMOKE, f"sweep_root={root}", "--out", tmp_path / "out")
@@ -403,6 +404,7 @@ def _group_alive(pgid: int) -> bool:
     return True
 
 
+@pytest.mark.slow
 def test_a_sweep_over_the_robot_count_may_name_it_as_the_task_key(cli, tmp_path):
     """`task.num_agents=range(1,4)` is the `agents` axis, as Hydra users would write it."""
     by_axis = _sweep(cli, tmp_path, "experiment=scale", "agents=1,2,3", "--dry-run")

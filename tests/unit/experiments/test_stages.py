@@ -293,6 +293,7 @@ def _fake_result(cfg, identities: dict[str, str]) -> dict:
     }
 
 
+@pytest.mark.slow
 def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli, tmp_path):
     root = tmp_path / "sweeps"
     args = ["sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder", *SMOKE, f"sweep_root={root}"]
@@ -330,6 +331,7 @@ def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli
     assert "its evaluations changed (old_name -> go1, main)" in cli(*args).stdout
 
 
+@pytest.mark.slow
 def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(cli, tmp_path, capsys):
     root, archive = tmp_path / "sweeps", tmp_path / "archive"
     args = ["sweep", "--dry-run", "experiment=main", "method=sa", "task=cylinder", *SMOKE, f"sweep_root={root}"]
@@ -475,6 +477,7 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     assert str(result_changes(elsewhere, legged, planned_stages(legged))) == stale
 
 
+@pytest.mark.slow
 def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_shape(cli, tmp_path):
     root, archive = tmp_path / "sweeps", tmp_path / "archive"
     # SA's cylinder mid level of seed 1 finished on another machine in 3600 core-seconds (32 env-steps at the smoke

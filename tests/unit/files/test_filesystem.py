@@ -27,6 +27,7 @@ def tmpfs(where: Path, size: str, read_only: bool = False):
         subprocess.run(["umount", "-l", str(where)], check=False)
 
 
+@pytest.mark.slow
 def test_training_onto_a_read_only_filesystem_is_one_line(cli, tmp_path):
     with tmpfs(tmp_path / "ro", "1m", read_only=True) as root:
         proc = cli("train", "debug=smoke", f"train.run_root={root}")
@@ -34,6 +35,7 @@ def test_training_onto_a_read_only_filesystem_is_one_line(cli, tmp_path):
         assert not any(root.iterdir())
 
 
+@pytest.mark.slow
 def test_training_onto_a_full_filesystem_leaves_no_half_made_run(cli, tmp_path):
     with tmpfs(tmp_path / "full", "8k") as root:
         (root / "filler").write_bytes(b"\0" * 6000)
@@ -42,6 +44,7 @@ def test_training_onto_a_full_filesystem_leaves_no_half_made_run(cli, tmp_path):
         assert not list((root).glob("mid/cuboid/*"))
 
 
+@pytest.mark.slow
 def test_an_evaluation_that_fills_the_disk_keeps_the_earlier_eval_json(cli, run_copy, tmp_path):
     with tmpfs(tmp_path / "full", "4m") as root:
         run = Path(shutil.copytree(run_copy, root / "run"))

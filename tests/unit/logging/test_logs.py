@@ -310,6 +310,7 @@ def test_training_records_episodes_at_the_interval(cli, tmp_path):
     assert info["topics"]["/scene"]["messages"] >= 50 * info["topics"]["/episode"]["messages"] - 50
 
 
+@pytest.mark.slow
 def test_eval_writes_the_episode_file(cli, run_copy):
     proc = cli("eval", run_copy, "--episodes", "3", "--seeds", "0,1", "log.eval_episodes=2")
     assert proc.returncode == 0, proc.stderr
@@ -383,6 +384,7 @@ def test_sigkilled_metrics_are_recovered_up_to_the_last_flush(tmp_path, cli):
     assert all(set(range(last + 1)) <= its for its in iterations.values())  # every flushed iteration, every tag
 
 
+@pytest.mark.slow
 def test_sigkilled_episode_file_is_recovered_up_to_the_last_episode(tmp_path, cli):
     last = _kill_after(KILL_EPISODES, tmp_path, lines=3)
     proc = cli("logs", "recover", tmp_path / "episodes.mcap", "-o", tmp_path / "fixed.mcap")
@@ -633,6 +635,7 @@ def test_ctrl_c_saves_the_networks_and_prints_the_resume_command(tmp_path, backg
     assert summary(run_dir / "metrics.mcap")["complete"]
 
 
+@pytest.mark.slow
 def test_plot_of_a_run_shorter_than_its_smoothing_window_says_so(cli, smoke_run, tmp_path):
     proc = cli("plot", smoke_run, "--out", tmp_path / "curves.png", "--smooth", "5")
     assert proc.returncode == 0, proc.stderr

@@ -230,6 +230,7 @@ def run_child(script: str, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", script, *args], env=env, capture_output=True, text=True, timeout=240)
 
 
+@pytest.mark.slow
 def test_a_recorded_episode_of_three_robots_renders_headless_to_the_asked_frames(tmp_path):
     out = tmp_path / "three_robots.mp4"
     proc = run_child(RENDER_SCRIPT, str(out))
@@ -288,6 +289,7 @@ HIGH_FRAME_SCRIPT = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_a_high_level_frame_shows_the_object_it_tracks(smoke_run, tmp_path):
     # the high level's scene parks unused obstacle blocks 1 km away; MuJoCo's clip planes scale with the extent that
     # makes, and a near plane beyond the camera's distance once left every high-level frame without its object

@@ -241,6 +241,7 @@ def test_compare_evaluates_a_tracker_run_as_trained_and_on_go1s(cli, smoke_run, 
     assert "| run | cuboid | 2 |" in out.with_suffix(".md").read_text()
 
 
+@pytest.mark.slow
 def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):
     proc = cli(
         "train",
@@ -254,6 +255,7 @@ def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1 and not list(tmp_path.glob("mid/**/config.yaml"))
 
 
+@pytest.mark.slow
 def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_run):
     from mapush.envs.mid import MidPushEnv
 
@@ -277,6 +279,7 @@ def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_ru
     assert env.exception_names[int(info["episode_end"]["exception_kind"][0])] == "robot_tilt"
 
 
+@pytest.mark.slow
 def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli, low_run, tmp_path):
     from mapush.calibration.run import default_config_path, physical_bounds
 
@@ -426,6 +429,7 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
     ],
     ids=["forward", "turning"],
 )
+@pytest.mark.slow
 def test_the_shipped_policy_holds_a_command_within_the_tracking_bound(cfg_for, command, error, bound):
     """5 s of one command on flat ground, no pushes: the shipped policy tracks it within 20 % of the command (0.5
     m/s forward: 0.1 m/s; 0.5 rad/s turning: 0.1 rad/s), measured after the first second."""

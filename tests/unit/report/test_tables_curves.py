@@ -222,7 +222,7 @@ def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
 
 
 def test_a_job_with_one_stale_evaluation_or_stage_marks_only_the_cells_made_of_it():
-    from mapush.experiments.staleness import Change
+    from mapush.experiments.results import Change
     from mapush.report.cells import collect as _collect
 
     def job(name: str, change: Change) -> JobResult:
