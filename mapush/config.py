@@ -122,9 +122,13 @@ def compose_config(
     check_config(cfg)  # types and ranges, before anything is built or written
     if not hydra:
         _COMPOSED[key] = (files, copy.deepcopy(cfg))
+        while len(_COMPOSED) > COMPOSED_KEPT:
+            _COMPOSED.pop(next(iter(_COMPOSED)))  # the oldest: a long sweep's worker composes job after job
     return cfg
 
 
+COMPOSED_KEPT = 256
+"""How many composed configs a process keeps (a few MB): more than the main table's plan composes."""
 _COMPOSED: dict[tuple, tuple[tuple, DictConfig]] = {}
 """Configs this process composed, by overrides and config name, with the config files' stamp they were composed
 from: a sweep plans each stage more than once, and Hydra reads every file anew each time (about 0.4 s)."""
