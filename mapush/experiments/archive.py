@@ -67,12 +67,13 @@ def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
         result = read_result(path)
         runs_of = dict(zip(result.stages, result.stage_runs(), strict=True))
         target = Path(out).joinpath(*job_key(path), path.name)
-        earlier = read_result(target).stage_core_s if target.is_file() else {}
+        archived = read_result(target) if target.is_file() else None
+        earlier = archived.stage_core_s if archived else {}
         result.stage_core_s = {**earlier, **result.stage_core_s, **recorded_stage_seconds(runs_of)}
         result.archived_from = result.archived_from or str(path.parent)
         for run in runs_of.values():
             _archive_identity(run, Path(out))
-        if target.is_file() and read_result(target).record() == result.record():
+        if archived and archived.record() == result.record():
             unchanged += 1  # archived before, alike (perhaps in an older format)
             continue
         target.parent.mkdir(parents=True, exist_ok=True)
