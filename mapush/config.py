@@ -17,7 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput, first_line
-from mapush.migrations import absent_meant, stamp
+from mapush.migrations import absent_meant, stamp, upgrade_run_config
 from mapush.schema import check_config
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
@@ -241,6 +241,7 @@ def load_run_config(run_dir: Path) -> DictConfig:
             f"{str(path)!r} is not a run's config (empty, or no level or task); valid: the config.yaml "
             "a run was made with"
         )
+    run = upgrade_run_config(run)
     name = OmegaConf.select(run, "level.name", default="")
     if (CONF_DIR / "level" / f"{name}.yaml").is_file():
         root.level = level_defaults(name)

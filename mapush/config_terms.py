@@ -1,7 +1,7 @@
-"""Config terms: a named function `module:function` with its params, as the reward, observation and exception
-sections of a level's config name them (`{name: {func, params, ...}}`). Resolved and checked once, when the env
-is built: a bad path or a params mismatch is one BadInput line naming the valid choices. Only code of trusted
-modules is imported (`mapush.trust`)."""
+"""Config terms: a named function `module:function` with its params, as the reward, observation, exception and
+event sections of a level's config name them (`{name: {func, params, ...}}`; an event names a class). Resolved and
+checked once, when the env is built: a bad path or a params mismatch is one BadInput line naming the valid choices.
+Only code of trusted modules is imported (`mapush.trust`)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,9 @@ def resolve_term(path: str, key: str = "func") -> Callable:
         valid = sorted(
             n
             for n, f in vars(module).items()
-            if inspect.isfunction(f) and not n.startswith("_") and f.__module__ == module.__name__
+            if (inspect.isfunction(f) or getattr(f, "is_event_term", False))  # events are classes
+            and not n.startswith("_")
+            and f.__module__ == module.__name__
         )
         raise BadInput(f"unknown term function {path!r}; valid in {module_name}: {', '.join(valid)}")
     return func

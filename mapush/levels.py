@@ -18,6 +18,7 @@ from mapush.commands.plan import make_planner
 from mapush.config import sim_threads, to_plain
 from mapush.envs.high import HighPushEnv
 from mapush.envs.low import TRACKING_ERRORS, LocomotionEnv
+from mapush.envs.low_events import locomotion_model
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv
@@ -25,7 +26,6 @@ from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
 from mapush.logging.foxglove_scene import SceneLayout
 from mapush.logging.go1_scene import Go1Layout
-from mapush.lowlevel.go1_training_scene import locomotion_model
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for

@@ -5,6 +5,10 @@ job's `result.json` and a stage's `stage.yaml`. A file without it was written be
 Readers pass what they read through `upgrade`, which brings it to today's version one step at a time (`STEPS`), so
 that no other module tests for an old form.
 
+A run's saved `config.yaml` in an old form is rewritten to today's form when it is read (`upgrade_run_config`):
+the low level's disturbances, once keys of `level.randomize` and `level.eval_*`, are event terms since
+2026-11-29 (`level.events`, `level.eval_events`).
+
 Two kinds of change live in the config instead, as keys whose absence has a meaning:
 - a key added after runs were made, with the value that leaves those runs as they were (`UNSET_LATER_KEYS`): at
   that value a stage's identity leaves the key out, so the stages trained before it keep theirs;
@@ -69,6 +73,44 @@ def upgrade(data: dict, what: str) -> dict:
         data = STEPS[version](data)
         version += 1
     return stamp(data)
+
+
+EVENT_KEYS = {
+    "randomize.push_interval_s": ("events", "push", "interval_s"),
+    "randomize.push_velocity": ("events", "push", "velocity_mps"),
+    "randomize.force_n": ("events", "lean", "force_n"),
+    "randomize.force_duration_s": ("events", "lean", "duration_s"),
+    "randomize.force_interval_s": ("events", "lean", "interval_s"),
+    "randomize.load": ("events", "load", None),
+    "randomize.teammates": ("events", "teammates", None),
+    "eval_push_velocity": ("eval_events", "push", "velocity_mps"),
+    "eval_force_n": ("eval_events", "lean", "force_n"),
+    "eval_load_fraction": ("eval_events", "load", "fraction"),
+    "eval_teammate_fraction": ("eval_events", "teammates", "fraction"),
+}
+"""Keys of a low-level run's `level` before its disturbances were event terms, and where each went: (section,
+event, param), param None for a block that became the event's params. An event's `func` comes from today's
+defaults, which a run's saved config is merged onto."""
+
+
+def upgrade_run_config(run: DictConfig) -> DictConfig:
+    """A run's saved config in today's form (`EVENT_KEYS`); a config already in it is returned as it is."""
+    level = run.get("level")
+    if level is None or not any(OmegaConf.select(level, key) is not None for key in EVENT_KEYS):
+        return run
+    run = run.copy()
+    for key, (section, event, param) in EVENT_KEYS.items():
+        parent, _, leaf = key.rpartition(".")
+        node = OmegaConf.select(run.level, parent) if parent else run.level
+        if node is None or leaf not in node:
+            continue
+        value = node.pop(leaf)
+        target = f"level.{section}.{event}" + (".params" if section == "events" else "")
+        if param is None:
+            OmegaConf.update(run, target, value, merge=True, force_add=True)
+        else:
+            OmegaConf.update(run, f"{target}.{param}", value, force_add=True)
+    return run
 
 
 def absent_meant(saved: DictConfig, cfg: DictConfig) -> None:

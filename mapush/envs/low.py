@@ -10,19 +10,15 @@ cannot measure. Servo gains and the action scale are the go1 backend's (`conf/lo
 
 Commands are drawn per env from `level.commands` at reset and every `resample_s`; a `zero_fraction` of them are
 "stand still" and a `turn_fraction` "turn on the spot". Evaluation draws them from `level.eval_commands`, the range
-the mid level commands, and pushes with `level.eval_push_velocity` (0 by default: the tracking target is on flat
-ground, undisturbed).
+the mid level commands.
 
-Domain randomization: ground and foot friction and an added trunk mass, drawn once per env, a random push (a
-change of the trunk's horizontal velocity) every `push_interval_s`, and optionally a held horizontal force on the
-trunk (`force_n`: the load of pushing an object or being leaned on). Optionally (`randomize.load`) a free box or
-cylinder of the pushing tasks' size stands ahead of the robot, along its first command, for it to walk into and
-shove unseen, as it must under the pushing levels (`eval_load_fraction` measures a policy doing so). Optionally
-(`randomize.teammates`) teammates stand beside it, shoulder to shoulder as a pushing team's robots do: Go1s walked
-by the frozen locomotion policy (`lowlevel.policy`), which walk along at the robot's commanded velocity and lean
-into it (`eval_teammate_fraction` measures a policy among them). A fall
-(trunk too low, tilted too far, or touching the ground) ends the episode as an exception; reaching the timeout is a
-success.
+Domain randomization: ground and foot friction and an added trunk mass, drawn once per env (`level.randomize`).
+Disturbances are event terms (`level.events`, `low_events.py`): a random push (a change of the trunk's horizontal
+velocity) every few seconds, and optionally a held horizontal force on the trunk (the load of pushing an object or
+being leaned on), a free box or cylinder of the pushing tasks' size ahead of the robot for it to walk into and
+shove unseen, and teammates beside it, shoulder to shoulder as a pushing team's robots are. Evaluation replaces
+their params with `level.eval_events` (by default it measures tracking undisturbed). A fall (trunk too low,
+tilted too far, or touching the ground) ends the episode as an exception; reaching the timeout is a success.
 """
 
 from __future__ import annotations
@@ -34,20 +30,12 @@ import numpy as np
 import torch
 
 from mapush.envs.base import EnvCore
-from mapush.envs.low_disturbances import Disturbances
+from mapush.envs.low_events import event_specs, locomotion_model
 from mapush.errors import BadInput
 from mapush.lowlevel import backend_name
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import proprioception, rotate_into_body, rotate_into_world
-from mapush.lowlevel.go1_training_scene import (
-    LOAD_BODIES,
-    LOAD_GEOM_FRICTION,
-    ROBOT_NQ,
-    ROBOT_NV,
-    load_fractions,
-    locomotion_model,
-    teammate_fractions,
-)
+from mapush.lowlevel.go1_training_scene import ROBOT_NQ, ROBOT_NV
 from mapush.sim.batch import BatchSim
 from mapush.sim.geoms import drawn_geom_ids, quat_multiply
 
@@ -70,8 +58,9 @@ class LocomotionState:
     trunk_z: torch.Tensor  # (E,) trunk box centre height, m
 
 
-class LocomotionEnv(Disturbances, EnvCore):
-    """E Go1s on flat ground, each tracking its own velocity command; see the module docstring."""
+class LocomotionEnv(EnvCore):
+    """E Go1s on flat ground, each tracking its own velocity command; see the module docstring. `events` holds its
+    event terms by name (`low_events.Event`)."""
 
     state: LocomotionState
 
@@ -79,13 +68,10 @@ class LocomotionEnv(Disturbances, EnvCore):
         self.validate(cfg)
         level, sim_cfg = cfg["level"], cfg["sim"]
         E = num_envs or cfg["num_envs"]
-        self.model = locomotion_model(cfg)
+        self.model = locomotion_model(cfg, evaluation)
         sim = BatchSim(self.model, E, sim_cfg["decimation"], sim_cfg["nthread"])
         super().__init__(cfg, sim, E, num_agents=1, rows=1, dt=sim.dt)
         self.command_ranges = level["eval_commands" if evaluation else "commands"]
-        self.push_velocity = level["eval_push_velocity"] if evaluation else level["randomize"]["push_velocity"]
-        self.force_n = level["eval_force_n"] if evaluation else level["randomize"]["force_n"]
-        self.load_fraction = load_fractions(cfg)[1 if evaluation else 0]
         self.num_actions = 12
         self.robot = cfg["lowlevel"]  # servo gains and action scale: the go1 backend's, which runs the policy later
         self.action_limit = float(self.robot["action_clip"])
@@ -95,15 +81,13 @@ class LocomotionEnv(Disturbances, EnvCore):
         self.body_xquat = b.bind("xquat")
         self.applied = b.bind("xfrc_applied")  # (E, nbody, 6) force and torque on each body, world frame
         self.trunk = self.model.body(go1.ROOT_BODY).id
-        self.force_steps_left = np.zeros(E, dtype=np.int64)
         self.feet = np.array([self.model.geom(name).id for name in go1.FOOT_NAMES])
         self.trunk_geom = self.model.geom("trunk_box").id
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
         self.robot_qpos, self.robot_qvel = sim.qpos[:, :ROBOT_NQ], sim.qvel[:, :ROBOT_NV]  # views
-        self.loads = [self.model.body(name) for name in LOAD_BODIES.values()] if any(load_fractions(cfg)) else []
-        self.teammate_fraction = teammate_fractions(cfg)[1 if evaluation else 0]
-        self._bind_teammates()
+        specs = event_specs(level, evaluation)
+        self.events = {name: event(self, **params) for name, (event, params, _) in specs.items()}
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()
         self.commands = torch.zeros(E, 3)
@@ -122,22 +106,19 @@ class LocomotionEnv(Disturbances, EnvCore):
         self.rng = np.random.default_rng(int(seed))
 
     def _randomize_once(self) -> None:
-        """Per-env ground and foot friction and added trunk mass (drawn once, as the original drew friction)."""
+        """Per-env ground and foot friction and added trunk mass (drawn once, as the original drew friction), then
+        what each event draws once."""
         rand = self.cfg["level"]["randomize"]
         E, batch = self.num_envs, self.sim.batch
         friction = batch.expand("geom_friction")
-        mu = self.rng.uniform(*rand["friction"], size=E)
+        self.floor_friction = self.rng.uniform(*rand["friction"], size=E)  # (E,)
         floor = self.model.geom("floor").id
-        friction[:, floor, 0] = mu
-        friction[:, self.feet, 0] = mu[:, None]
+        friction[:, floor, 0] = self.floor_friction
+        friction[:, self.feet, 0] = self.floor_friction[:, None]
         mass = batch.expand("body_mass")
-        trunk = self.model.body(go1.ROOT_BODY).id
-        mass[:, trunk] = self.model.body_mass[trunk] + self.rng.uniform(*rand["added_mass"], size=E)
-        inertia = batch.expand("body_inertia") if self.loads else None
-        for body in self.loads:  # the mass whose drag on this env's floor is U(resistance_n) newtons
-            resistance = self.rng.uniform(*rand["load"]["resistance_n"], size=E)
-            mass[:, body.id] = resistance / (np.maximum(mu, LOAD_GEOM_FRICTION) * -self.model.opt.gravity[2])
-            inertia[:, body.id] = np.outer(mass[:, body.id] / body.mass[0], body.inertia)  # a uniform solid's
+        mass[:, self.trunk] = self.model.body_mass[self.trunk] + self.rng.uniform(*rand["added_mass"], size=E)
+        for event in self.events.values():
+            event.startup()
         batch.set_const()
 
     # ----------------------------------------------------------------------------------------------------------
@@ -155,12 +136,9 @@ class LocomotionEnv(Disturbances, EnvCore):
         sim.ctrl[ids] = 0.0
         sim.ctrl[ids, :12] = self.default_pose
         self.applied[ids, self.trunk] = 0.0
-        self.force_steps_left[ids] = 0
         self.commands[t] = self._sample_commands(n)
-        if self.loads:
-            self._place_loads(ids, yaw, self.commands[t].numpy())
-        if self.mates:
-            self._place_teammates(ids, qpos[:, :2], yaw)
+        for event in self.events.values():
+            event.reset(ids, qpos[:, :2], yaw, self.commands[t].numpy())
         sim.forward(ids)
         self.actions[t] = 0.0
         self.last_actions[t] = 0.0
@@ -209,12 +187,12 @@ class LocomotionEnv(Disturbances, EnvCore):
         self.last_actions = self.actions
         self.actions = actions.reshape(self.num_envs, 12).clamp(-self.action_limit, self.action_limit)
         self.sim.ctrl[:, :12] = self.default_pose + self.robot["action_scale"] * self.actions.numpy().astype(np.float64)
-        if self.mates:
-            self._drive_teammates()
+        for event in self.events.values():
+            event.before_physics()
         failed = self.sim.advance()
         self.episode_step += 1
-        self._push()
-        self._lean()
+        for event in self.events.values():
+            event.after_physics()
         self._read_state()
         self._update_air_time()
         self.diverged = torch.zeros(self.num_envs, dtype=torch.bool)
@@ -262,9 +240,13 @@ class LocomotionEnv(Disturbances, EnvCore):
         self.landed_air_time = self.air_time * self.first_contact
         self.air_time = self.air_time * ~self.state.foot_contact
 
+    def every(self, seconds: float) -> torch.Tensor:
+        """(E,) envs whose episode is at a multiple of `seconds` (at least one step) this step."""
+        return self.episode_step % max(1, round(seconds / self.dt)) == 0
+
     def _before_reset(self, done: torch.Tensor) -> None:
         """New commands every `resample_s`, after the step's were recorded."""
-        due = self._every(self.command_ranges["resample_s"]) & (self.episode_step > 0)
+        due = self.every(self.command_ranges["resample_s"]) & (self.episode_step > 0)
         if due.any():
             self.commands[due] = self._sample_commands(int(due.sum()))
 
@@ -275,10 +257,11 @@ class LocomotionEnv(Disturbances, EnvCore):
 
     @classmethod
     def validate(cls, cfg: dict) -> None:
-        """Check the robot and the terms before anything is built."""
+        """Check the robot and the terms (events included) before anything is built."""
         if backend_name(cfg["lowlevel"]) != "go1":
             raise BadInput(f"level=low trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1")
         cls.check_terms(cfg)
+        event_specs(cfg["level"], evaluation=False)
 
 
 def proprioceptive_observation(env) -> torch.Tensor:

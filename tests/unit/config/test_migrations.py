@@ -58,3 +58,48 @@ def test_the_committed_results_all_read():
     for path in found:
         record = {k: v for k, v in json.loads(path.read_text()).items() if k != "format_version"}
         assert results.read_result(path).record() == record
+
+
+def test_a_low_level_run_saved_before_events_reads_its_disturbances_as_event_params(tmp_path):
+    """A run saved with `level.randomize.force_n` and friends (the form before 2026-11-29) loads with each value at
+    its event's param, and today's `func` for it; its own values win over today's defaults."""
+    from mapush.config import compose_config, load_run_config, to_plain
+
+    saved = to_plain(compose_config(["level=low"]))
+    level = saved["level"]
+    level.pop("events"), level.pop("eval_events")
+    level["randomize"].update(
+        push_interval_s=6.0, push_velocity=0.4, force_n=50.0, force_duration_s=1.5, force_interval_s=3.0
+    )
+    level["randomize"]["teammates"] = {"fraction": 0.5, "count": 3, "gap_m": [0.0, 0.2], "lean_mps": [0.0, 0.7]}
+    level.update(eval_push_velocity=0.2, eval_force_n=30.0, eval_load_fraction=1.0)
+    OmegaConf.save(OmegaConf.create(saved), tmp_path / "config.yaml")
+    events = load_run_config(tmp_path).level.events
+    upgraded = OmegaConf.to_container(load_run_config(tmp_path).level)
+    assert events.push.params == {"interval_s": 6.0, "velocity_mps": 0.4}
+    assert events.lean.params == {"force_n": 50.0, "duration_s": 1.5, "interval_s": 3.0}
+    assert events.teammates.params.count == 3 and events.teammates.params.lean_mps == [0.0, 0.7]
+    assert events.teammates.params.heading_rad == 0.2  # a param the old run did not save: today's default
+    assert events.lean.func == "mapush.envs.low_events:Lean"
+    assert upgraded["eval_events"] == {
+        "push": {"velocity_mps": 0.2},
+        "lean": {"force_n": 30.0},
+        "load": {"fraction": 1.0},
+        "teammates": {"fraction": 0.0},  # not saved: today's default
+    }
+    assert set(upgraded["randomize"]) == {"friction", "added_mass", "joint_scale"}
+    assert not any(key.startswith("eval_") and key not in ("eval_commands", "eval_events") for key in upgraded)
+
+
+def test_the_shipped_strong_go1_reads_the_disturbances_it_was_trained_under():
+    """The shipped `go1_strong` run saved the old form; its overrides.yaml records what it trained under."""
+    from mapush.config import load_run_config
+    from mapush.rundir import SHIPPED_LOWLEVEL
+
+    run = SHIPPED_LOWLEVEL / "go1_strong"
+    overrides = OmegaConf.load(run / "overrides.yaml")
+    assert "level.randomize.force_n=50.0" in overrides and "level.randomize.load.fraction=0.5" in overrides
+    events = load_run_config(run).level.events
+    assert events.lean.params.force_n == 50.0
+    assert events.load.params.fraction == 0.5 and events.teammates.params.fraction == 0.5
+    assert list(events.teammates.params.lean_mps) == [0.0, 0.7]

@@ -153,10 +153,10 @@ def test_a_held_force_leans_on_the_trunk_for_its_duration_and_moves_it_that_way(
 
     from mapush.envs.low import LocomotionEnv
 
-    cfg = cfg_for("level=low", "level.randomize.push_velocity=0.0")  # no velocity pushes: only the force acts
-    cfg["level"]["randomize"].update(force_n=80.0, force_interval_s=0.4, force_duration_s=0.2)  # at step 20, for 10
+    cfg = cfg_for("level=low", "level.events.push=null")  # no velocity pushes: only the force acts
+    cfg["level"]["events"]["lean"]["params"] = {"force_n": 80.0, "interval_s": 0.4, "duration_s": 0.2}  # step 20, 10
     leaned = LocomotionEnv(cfg, num_envs=4)
-    cfg["level"]["randomize"]["force_n"] = 0.0
+    cfg["level"]["events"]["lean"]["params"]["force_n"] = 0.0
     upright = LocomotionEnv(cfg, num_envs=4)  # the same seed: the same starts, frictions and masses
     still = torch.zeros(4, 1, 12)  # the default pose under PD
     held = []
@@ -319,7 +319,8 @@ def test_without_a_load_or_teammate_fraction_the_scene_holds_the_go1_alone(cfg_f
 
     env = LocomotionEnv(cfg_for("level=low"), num_envs=2)
     # runs trained before loads and teammates simulate what they trained on
-    assert env.model.nq == 7 + 12 and env.model.nu == 12 and env.loads == [] and env.mates is None
+    assert env.model.nq == 7 + 12 and env.model.nu == 12
+    assert env.events["load"].bodies == [] and env.events["teammates"].mates is None
 
 
 def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg_for):
@@ -331,18 +332,19 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
 
     cfg = cfg_for(
         "level=low",
-        "level.randomize.teammates.fraction=1.0",
-        "level.randomize.teammates.lean_mps=[0.3,0.3]",
+        "level.events.teammates.params.fraction=1.0",
+        "level.events.teammates.params.lean_mps=[0.3,0.3]",
         "level.commands.zero_fraction=1.0",
-        "level.randomize.push_velocity=0.0",
+        "level.events.push.params.velocity_mps=0.0",
     )
     env = LocomotionEnv(cfg, num_envs=8)
-    mates, width = cfg["level"]["randomize"]["teammates"], cfg["lowlevel"]["size"][1]
-    assert env.model.nu == 12 * 3 and env.mate_used.all()
+    teammates = env.events["teammates"]
+    mates, width = cfg["level"]["events"]["teammates"]["params"], cfg["lowlevel"]["size"][1]
+    assert env.model.nu == 12 * 3 and teammates.used.all()
     qpos = env.sim.qpos
     for e in range(8):
         for k, side in enumerate((1.0, -1.0)):
-            world = np.array([*(env.mates.read(qpos, env.sim.qvel)["xy"][e, k] - qpos[e, :2]), 0.0])
+            world = np.array([*(teammates.mates.read(qpos, env.sim.qvel)["xy"][e, k] - qpos[e, :2]), 0.0])
             local = np.zeros(3)
             inverse = np.zeros(4)
             mujoco.mju_negQuat(inverse, qpos[e, 3:7])
@@ -350,11 +352,11 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
             assert abs(local[0]) <= 0.3 + 1e-6  # beside it, not ahead or behind
             gap = side * local[1] - width  # its centre beyond a Go1's width: the gap between their sides
             assert mates["gap_m"][0] - 1e-6 <= gap <= mates["gap_m"][1] + 1e-6
-    start = np.linalg.norm(env.mates.read(qpos, env.sim.qvel)["xy"] - qpos[:, None, :2], axis=-1)
+    start = np.linalg.norm(teammates.mates.read(qpos, env.sim.qvel)["xy"] - qpos[:, None, :2], axis=-1)
     standing = torch.zeros(8, 1, 12)  # the default pose: the robot stands still
     for _ in range(75):  # 1.5 s
         env.step(standing)
-    now = np.linalg.norm(env.mates.read(qpos, env.sim.qvel)["xy"] - qpos[:, None, :2], axis=-1)
+    now = np.linalg.norm(teammates.mates.read(qpos, env.sim.qvel)["xy"] - qpos[:, None, :2], axis=-1)
     assert (now < start).mean() > 0.9
     data = mujoco.MjData(env.model)
     touched = 0
@@ -365,19 +367,20 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
         touched += any(("mate" in a) != ("mate" in b) and "world" not in (a, b) for a, b in pairs)
     assert touched >= 4
 
-    unused = cfg_for("level=low", "level.randomize.teammates.fraction=0.5")  # evaluation: none beside it
-    parked = LocomotionEnv(unused, num_envs=64, evaluation=True)
-    xy = parked.mates.read(parked.sim.qpos, parked.sim.qvel)["xy"]
-    assert not parked.mate_used.any() and (np.linalg.norm(xy - np.array(MATE_PARKED_XY), axis=-1) < 2.0).all()
+    unused = cfg_for("level=low", "level.events.teammates.params.fraction=0.5")  # evaluation: none beside it
+    parked = LocomotionEnv(unused, num_envs=64, evaluation=True).events["teammates"]
+    xy = parked.mates.read(parked.env.sim.qpos, parked.env.sim.qvel)["xy"]
+    assert not parked.used.any() and (np.linalg.norm(xy - np.array(MATE_PARKED_XY), axis=-1) < 2.0).all()
 
 
 def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(cfg_for):
     from mapush.envs.low import LocomotionEnv
     from mapush.lowlevel.go1_training_scene import PARKED_XY
 
-    cfg = cfg_for("level=low", "level.randomize.load.fraction=1.0", "level.randomize.push_velocity=0.0")
-    load = cfg["level"]["randomize"]["load"]
+    cfg = cfg_for("level=low", "level.events.load.params.fraction=1.0", "level.events.push=null")
+    load = cfg["level"]["events"]["load"]["params"]
     env = LocomotionEnv(cfg, num_envs=16)
+    loads = env.events["load"].bodies
     qpos, model = env.sim.qpos, env.model
     trunk_xy = qpos[:, :2]
     placed = np.zeros(16, dtype=int)
@@ -387,7 +390,7 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
         """(E, 2) the load's planar position: its free joint's qpos."""
         return qpos[:, model.jnt_qposadr[body.jntadr[0]] :][:, :2]
 
-    for body, reach, parked in zip(env.loads, reaches, PARKED_XY.values(), strict=True):
+    for body, reach, parked in zip(loads, reaches, PARKED_XY.values(), strict=True):
         xy = where(body)
         here = np.linalg.norm(xy - parked, axis=1) > 1.0
         placed += here
@@ -406,7 +409,7 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
     start, moved = {}, {}
     for share in (0.5, 1.5):
         env.reset(np.arange(16))
-        for body in env.loads:
+        for body in loads:
             start[body.id] = where(body).copy()
             drag = (
                 mass[:, body.id] * 9.81 * np.maximum(friction[:, floor, 0], friction[:, model.body_geomadr[body.id], 0])
@@ -416,7 +419,7 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
             env.applied[:, body.id, :2] = share * drag[:, None] * away / np.linalg.norm(away, axis=1, keepdims=True)
         for _ in range(25):  # 0.5 s; the robot stands in its default pose, clear of the load
             env.sim.advance()
-        moved[share] = np.concatenate([np.linalg.norm(where(b) - start[b.id], axis=1) for b in env.loads])
+        moved[share] = np.concatenate([np.linalg.norm(where(b) - start[b.id], axis=1) for b in loads])
     assert moved[0.5].max() < 0.01 and moved[1.5].min() > 0.05
 
 
@@ -475,3 +478,29 @@ def test_a_run_started_from_another_runs_networks_fine_tunes_them(cli, low_run, 
         proc = cli("train", "level=low", "debug=smoke", f"train.init_from={bad}", f"train.run_root={tmp_path}/bad")
         assert proc.returncode == 2 and named in proc.stderr.strip().splitlines()[-1], proc.stderr
         assert not (tmp_path / "bad").exists()
+
+
+def test_evaluation_replaces_the_event_params_that_eval_events_names(cfg_for):
+    from mapush.envs.low import LocomotionEnv
+
+    cfg = cfg_for("level=low", "level.events.lean.params.force_n=20.0", "level.eval_events.lean.force_n=40.0")
+    training, evaluation = LocomotionEnv(cfg, num_envs=2), LocomotionEnv(cfg, num_envs=2, evaluation=True)
+    assert training.events["lean"].force_n == 20.0 and evaluation.events["lean"].force_n == 40.0
+    assert training.events["push"].velocity == 0.5 and evaluation.events["push"].velocity == 0.0  # low.yaml's
+    assert training.events["lean"].duration_s == evaluation.events["lean"].duration_s == 2.0  # not replaced
+    assert list(training.events) == ["push", "lean", "load", "teammates"]  # config order: the order of the draws
+
+
+@pytest.mark.parametrize(
+    ("override", "named"),
+    [
+        ("+level.eval_events.shove.force_n=1.0", "level.eval_events.shove names no event; valid: push, lean"),
+        ("+level.eval_events.lean.size_n=1.0", "level.eval_events.lean (mapush.envs.low_events:Lean) takes params"),
+        ("level.events.push.func=mapush.envs.low_events:Shove", "valid in mapush.envs.low_events: Event, Lean, Load"),
+    ],
+    ids=["unknown-event", "unknown-param", "unknown-class"],
+)
+def test_a_bad_event_is_one_line_exit_2_and_makes_no_run_dir(cli, tmp_path, override, named):
+    proc = cli("train", "level=low", "debug=smoke", override, f"train.run_root={tmp_path / 'runs'}")
+    assert proc.returncode == 2 and named in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "runs").exists()
