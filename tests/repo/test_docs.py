@@ -79,7 +79,7 @@ def test_the_results_readme_is_short():
 def test_the_readme_keeps_the_two_commands_ci_runs():
     text = (ROOT / "README.md").read_text()
     assert "bash tools/setup.sh && .venv/bin/mapush train\n" in text
-    assert 'EXTRAS=test,ray bash tools/setup.sh && .venv/bin/python -m pytest -m "" -n 0 --durations=15\n' in text
+    assert 'EXTRAS=test,ray bash tools/setup.sh && .venv/bin/python -m pytest -m "" -n auto --durations=15\n' in text
 
 
 def test_no_tracked_file_cites_a_document_outside_the_repo():
