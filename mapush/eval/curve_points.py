@@ -13,11 +13,30 @@ def first_reaching(points: list[dict], threshold: float) -> dict | None:
     return None
 
 
-def tail_gain(points: list[dict], tail: float) -> float | None:
-    """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus the rate of the
-    earlier point nearest to (1 - tail) of the final env-steps (the earlier of two as near); None with one point."""
+def tail_start(points: list[dict], tail: float) -> dict | None:
+    """The point where the last `tail` fraction of the env-steps starts: the earlier point nearest to (1 - tail) of
+    the final env-steps (the earlier of two as near); None with one point."""
     if len(points) < 2:
         return None
     cut = (1 - tail) * points[-1]["env_steps"]
-    start = min(points[:-1], key=lambda p: (abs(p["env_steps"] - cut), p["env_steps"]))
-    return points[-1]["success_rate"] - start["success_rate"]
+    return min(points[:-1], key=lambda p: (abs(p["env_steps"] - cut), p["env_steps"]))
+
+
+def tail_gain(points: list[dict], tail: float) -> float | None:
+    """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus that of
+    `tail_start`; None with one point."""
+    start = tail_start(points, tail)
+    return None if start is None else points[-1]["success_rate"] - start["success_rate"]
+
+
+def steps_to_reach(points: list[dict], target: float, tail: float) -> float | None:
+    """The env-steps at which the curve would reach success `target`, going on as its last `tail` went (a straight
+    line through `tail_start` and the last point): the last point's env-steps if it is there already, None if the
+    curve does not rise over its tail (or has one point)."""
+    start, last = tail_start(points, tail), points[-1]
+    if last["success_rate"] >= target:
+        return float(last["env_steps"])
+    if start is None or last["success_rate"] <= start["success_rate"]:
+        return None
+    slope = (last["success_rate"] - start["success_rate"]) / (last["env_steps"] - start["env_steps"])
+    return last["env_steps"] + (target - last["success_rate"]) / slope

@@ -7,6 +7,7 @@ import numpy as np
 from omegaconf import OmegaConf
 
 from mapush.config import group_file
+from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching
@@ -140,7 +141,11 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
                 f"{label}: {paper['labels'][method]} {learned:.1f} % is {verdict} the hand-written pusher's "
                 f"{bar:.1f} % in its action space (H+L, path only)"
             )
-            lines.append(Finding(text, learned >= bar, {"learned_sr": learned, "pusher_sr": bar}))
+            numbers = {"learned_sr": learned, "pusher_sr": bar}
+            more, needed = _steps_to(matching(mine, method=method, task=task), bar) if learned < bar else ("", None)
+            if more:
+                text, numbers["env_steps_to_pusher"] = text + more, needed
+            lines.append(Finding(text, learned >= bar, numbers))
     for eval_name, what in (("path_only", "path following"), ("go1", "legged Go1s")):
         other = collect(mine, "success_rate", 100.0, method="ours", task=task, eval=eval_name).values
         if not other:
@@ -156,6 +161,25 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
             lines.append(Finding(line + _ended_by(mine, task, eval_name), gap <= LEGGED_GAP, {"gap_points": gap}))
     lines += _legged_baseline(mine, paper, task)
     return lines
+
+
+def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:
+    """How many env-steps the mean learning curve of `results` would need to reach `rate_pct`, going on as the last
+    stretch of its budget went (`steps_to_reach`), as the end of a finding line, and the number (None: never)."""
+    per_seed = plots.seed_curves(results)
+    if not per_seed:
+        return "", None
+    x, rates, _ = plots.mean_curve(per_seed)
+    tail = float(next(r.curve for r in results if r.curve)["rule"]["tail"])
+    points = [{"env_steps": float(e), "success_rate": float(v)} for e, v in zip(x, rates, strict=True)]
+    needed = steps_to_reach(points, rate_pct / 100, tail)
+    budget = f"{x[-1] / 1e6:.1f}M env-steps"
+    if needed is None:
+        return f"; its curve does not rise over the last {100 * tail:.0f} % of its {budget}", None
+    return (
+        f"; its curve still rises: at the rate of its last {100 * tail:.0f} % it would reach that after about "
+        f"{needed / 1e6:.0f}M env-steps (its budget: {budget})"
+    ), needed
 
 
 def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:

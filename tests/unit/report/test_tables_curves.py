@@ -61,6 +61,18 @@ def test_tail_gain_is_the_success_added_over_the_last_fifth():
     assert tail_gain(points[:1], 0.2) is None
 
 
+def test_steps_to_reach_goes_on_as_the_last_stretch_of_the_curve_went():
+    from mapush.eval.curve_points import steps_to_reach
+
+    rates = [0.1, 0.1, 0.2, 0.25, 0.3]
+    points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
+    # the last fifth: 4M at 0.25 to 5M at 0.30, 0.05 a million; 0.5 is 0.2 away: 4M more
+    assert steps_to_reach(points, 0.5, 0.2) == pytest.approx(9_000_000)
+    assert steps_to_reach(points, 0.3, 0.2) == 5_000_000  # reached at the last point
+    flat = [{**p, "success_rate": 0.3} for p in points]
+    assert steps_to_reach(flat, 0.5, 0.2) is None and steps_to_reach(points[:1], 0.5, 0.2) is None
+
+
 def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curve():
     from mapush.report.plots import budget_verdict
 
@@ -172,6 +184,33 @@ def test_the_main_tables_findings_from_hand_made_results():
     results[3].evals["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
     assert _main_findings(results, PAPER["main"], "cuboid")[8].holds is True
     assert _main_findings(results, PAPER["main"], "tblock") == []
+
+
+def test_a_baseline_below_the_pusher_with_a_rising_curve_says_how_many_env_steps_it_would_need():
+    from mapush.report.main_table import PAPER, _main_findings
+
+    def job(method, seed, sr, rates=None):
+        points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": r} for k, r in enumerate(rates or [])]
+        curve = {"rule": RULE, "points": points} if rates else None
+        ev = {"main": {"success_rate": sr, "completion_time": 0.9, "timeout_s": 160.0}}
+        if method == "hl":
+            ev["path_only"] = {"success_rate": 0.45, "completion_time": 0.8, "timeout_s": 160.0}
+        return JobResult(method=method, task="cuboid", seed=seed, evals=ev, curve=curve, job_dir=f"{method}{seed}")
+
+    # two seeds, mean curve 0.05, 0.1, 0.15, 0.2, 0.25: +0.05 over the last fifth (4M to 5M); 0.45 is 0.2 away
+    rising = [job("hl_ft", 0, 0.2, [0.0, 0.1, 0.1, 0.2, 0.2]), job("hl_ft", 1, 0.3, [0.1, 0.1, 0.2, 0.2, 0.3])]
+    flat = [job("hl", 0, 0.1, [0.1] * 5)]
+    found = [f for f in _main_findings([job("ours", 0, 0.8), *rising, *flat], PAPER["main"], "cuboid")
+             if "hand-written pusher" in str(f)]  # fmt: skip
+    hl, hl_ft = found
+    assert hl_ft.holds is False and hl_ft.numbers["env_steps_to_pusher"] == pytest.approx(9_000_000)
+    assert str(hl_ft).endswith(
+        "H+L FT 25.0 % is below the hand-written pusher's 45.0 % in its action space (H+L, path only); its curve "
+        "still rises: at the rate of its last 20 % it would reach that after about 9M env-steps (its budget: 5.0M "
+        "env-steps)"
+    )
+    assert str(hl).endswith("; its curve does not rise over the last 20 % of its 5.0M env-steps")
+    assert hl.numbers["env_steps_to_pusher"] is None
 
 
 def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
