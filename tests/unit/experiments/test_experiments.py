@@ -420,13 +420,14 @@ def test_a_sweep_over_the_robot_count_may_name_it_as_the_task_key(cli, tmp_path)
 
 @pytest.mark.slow
 def test_two_identical_sweeps_at_once_leave_every_episode_file_readable(tmp_path):
-    """Stage training is locked and so is evaluation: the second sweep waits, and no file is written twice at once."""
-    cmd = [*MAPUSH, "sweep", *SMOKE, f"sweep_root={tmp_path / 'sweeps'}", "experiment=ocb_ablation"]
+    """Stage training is locked and so is evaluation: the second sweep waits, and no file is written twice at once.
+    One job each (its stage, its two evaluations), the same job in both."""
+    cmd = [*MAPUSH, "sweep", *SMOKE, f"sweep_root={tmp_path / 'sweeps'}", "experiment=ocb_ablation", "method=ours"]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     procs = [subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE) for _ in "ab"]
     for proc in procs:
         assert proc.wait(timeout=900) == 0, proc.stderr.read()
     episode_files = list((tmp_path / "sweeps").glob("**/episodes*.mcap"))
-    assert len(episode_files) >= 4
+    assert len(episode_files) >= 2  # t20's and t40's
     assert all(summary(path)["complete"] for path in episode_files)
-    assert len(_results(tmp_path / "sweeps")) == 2
+    assert len(_results(tmp_path / "sweeps")) == 1
