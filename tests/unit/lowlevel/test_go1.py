@@ -497,8 +497,9 @@ def test_evaluation_replaces_the_event_params_that_eval_events_names(cfg_for):
         ("+level.eval_events.shove.force_n=1.0", "level.eval_events.shove names no event; valid: push, lean"),
         ("+level.eval_events.lean.size_n=1.0", "level.eval_events.lean (mapush.envs.low_events:Lean) takes params"),
         ("level.events.push.func=mapush.envs.low_events:Shove", "valid in mapush.envs.low_events: Event, Lean, Load"),
+        ("level.events.push.func=os:system", "level.events.push.func='os:system' names code outside the trusted"),
     ],
-    ids=["unknown-event", "unknown-param", "unknown-class"],
+    ids=["unknown-event", "unknown-param", "unknown-class", "untrusted-code"],
 )
 def test_a_bad_event_is_one_line_exit_2_and_makes_no_run_dir(cli, tmp_path, override, named):
     proc = cli("train", "level=low", "debug=smoke", override, f"train.run_root={tmp_path / 'runs'}")
