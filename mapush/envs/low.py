@@ -68,7 +68,8 @@ class LocomotionEnv(EnvCore):
         self.validate(cfg)
         level, sim_cfg = cfg["level"], cfg["sim"]
         E = num_envs or cfg["num_envs"]
-        self.model = locomotion_model(cfg, evaluation)
+        specs = event_specs(level, evaluation)
+        self.model = locomotion_model(cfg, evaluation, specs)
         sim = BatchSim(self.model, E, sim_cfg["decimation"], sim_cfg["nthread"])
         super().__init__(cfg, sim, E, num_agents=1, rows=1, dt=sim.dt)
         self.command_ranges = level["eval_commands" if evaluation else "commands"]
@@ -86,7 +87,6 @@ class LocomotionEnv(EnvCore):
         self.trunk_half_height = go1.TRUNK_SIZE[2] / 2
         self.default_pose = np.array(go1.default_joint_angles())
         self.robot_qpos, self.robot_qvel = sim.qpos[:, :ROBOT_NQ], sim.qvel[:, :ROBOT_NV]  # views
-        specs = event_specs(level, evaluation)
         self.events = {name: event(self, **params) for name, (event, params, _) in specs.items()}
         self.rng = np.random.default_rng(int(cfg["seed"]))
         self._randomize_once()

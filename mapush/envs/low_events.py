@@ -127,7 +127,7 @@ class Load(Event):
     ) -> None:
         super().__init__(env)
         self.fraction, self.resistance_n, self.distance_m = fraction, resistance_n, distance_m
-        names = LOAD_BODIES.values() if LOAD_BODIES["box"] in _body_names(env.model) else ()
+        names = LOAD_BODIES.values() if _has_body(env.model, LOAD_BODIES["box"]) else ()
         self.bodies = [env.model.body(name) for name in names]
         self.reach = {"box": math.hypot(*box_size_m[:2]) / 2, "cylinder": cylinder_size_m[0]}
 
@@ -193,7 +193,7 @@ class Teammates(Event):
         super().__init__(env)
         self.fraction, self.gap_m, self.lean_mps, self.along_m = fraction, gap_m, lean_mps, along_m
         self.heading_rad, self.row_gap_m = heading_rad, row_gap_m
-        k = count if MATE_PREFIX.format(0) + go1.ROOT_BODY in _body_names(env.model) else 0
+        k = count if _has_body(env.model, MATE_PREFIX.format(0) + go1.ROOT_BODY) else 0
         self.mates = Go1(env.cfg["lowlevel"]) if k else None  # their go1 backend; None: not in the scene
         if self.mates:
             self.mates.bind(env.model, [MATE_PREFIX.format(i) for i in range(k)])
@@ -241,8 +241,9 @@ class Teammates(Event):
         self.mates.command(env.sim.ctrl, qpos, qvel, np.concatenate([body, np.zeros_like(body[..., :1])], -1))
 
 
-def _body_names(model: mujoco.MjModel) -> set[str]:
-    return {model.body(i).name for i in range(model.nbody)}
+def _has_body(model: mujoco.MjModel, name: str) -> bool:
+    """Whether the scene holds a body of that name (whether `add_to_scene` added it)."""
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) >= 0
 
 
 def event_specs(level: dict, evaluation: bool) -> dict[str, tuple[type, dict, dict]]:
@@ -264,9 +265,10 @@ def event_specs(level: dict, evaluation: bool) -> dict[str, tuple[type, dict, di
     return specs
 
 
-def locomotion_model(cfg: dict, evaluation: bool = False) -> mujoco.MjModel:
-    """The locomotion env's model: one Go1 (`locomotion_spec`) and what its events add."""
+def locomotion_model(cfg: dict, evaluation: bool = False, specs: dict | None = None) -> mujoco.MjModel:
+    """The locomotion env's model: one Go1 (`locomotion_spec`) and what its events add (`specs`: `event_specs` of
+    the config in this mode, where the caller has them)."""
     spec = locomotion_spec(cfg["lowlevel"], cfg["sim"]["timestep"])
-    for event, *modes in event_specs(cfg["level"], evaluation).values():
+    for event, *modes in (specs or event_specs(cfg["level"], evaluation)).values():
         event.add_to_scene(spec, cfg["lowlevel"], tuple(modes))
     return spec.compile()
