@@ -26,6 +26,7 @@ import json
 import os
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from mapush.config import compose_config
@@ -71,7 +72,9 @@ def commit_of(checkout: Path) -> str:
 def rekey(old: Path, mid_run: str, overrides: list[str]) -> int:
     """Adopt the stages `old` trained for the sweep of `overrides` under this commit's identities; 1 (nothing
     adopted) when the fingerprints differ, else 0."""
-    prints = {name: fingerprint_at(path, mid_run) for name, path in (("old", old), ("new", HERE))}
+    with ThreadPoolExecutor(2) as pool:  # the two checkouts hashed at once, each in its own process
+        old_print, new_print = pool.map(lambda path: fingerprint_at(path, mid_run), (old, HERE))
+    prints = {"old": old_print, "new": new_print}
     if prints["old"] != prints["new"]:
         print(f"fingerprints differ, nothing adopted:\n  old {prints['old']}\n  new {prints['new']}")
         return 1
