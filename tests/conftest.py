@@ -103,17 +103,3 @@ def snapshot():
         }
 
     return take
-
-
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The `slow` tests first, each group in its usual order: the test processes start on the long ones and share
-    out the short ones at the end, rather than one process running a long test while the others have finished."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
-
-
-def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """`-n auto`: one test process more than the cores. Several tests wait on other processes (SLURM and Ray jobs,
-    signalled runs, a sweep's workers); the extra process keeps every core busy meanwhile.
-    PYTEST_XDIST_AUTO_NUM_WORKERS chooses instead."""
-    chosen = os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS")
-    return int(chosen) if chosen else len(os.sched_getaffinity(0)) + 1

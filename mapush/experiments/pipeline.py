@@ -119,7 +119,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
             evals[name] = kept[name]
             continue
         target = runs[eval_stage(cfg, spec)]
-        overrides = eval_overrides(spec)
+        overrides = eval_overrides(cfg, name)
         path = evaluate(target, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
@@ -218,7 +218,7 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
     curve = budget.get("curve")
     if not curve:
         return None
-    run_cfg = to_plain(apply_overrides(load_run_config(evaluated), eval_overrides(cfg.experiment.evals[curve.eval])))
+    run_cfg = to_plain(apply_overrides(load_run_config(evaluated), eval_overrides(cfg, curve.eval)))
     episodes, seeds = int(budget.eval.episodes), list(budget.eval.seeds)
     points = learning_curve(evaluated, run_cfg, float(curve.every_env_steps), episodes, seeds)
     rule = OmegaConf.to_container(cfg.experiment.budget_rule)

@@ -25,9 +25,9 @@ def still_valid(result: JobResult, cfg: DictConfig, planned: list[PlannedStage])
     for name, spec in cfg.experiment.evals.items():
         record = result.evals.get(name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
-        holds = holds and record.get("overrides", eval_overrides(spec)) == eval_overrides(spec)
+        holds = holds and record.get("overrides", eval_overrides(cfg, name)) == eval_overrides(cfg, name)
         if holds and not _walker_changed(record, result, cfg, name, planned):
-            kept[name] = {**record, "overrides": eval_overrides(spec)}
+            kept[name] = {**record, "overrides": eval_overrides(cfg, name)}
     curve, spec = result.curve, budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
     if not holds or curve.get("every_env_steps") != spec.every_env_steps:
@@ -47,7 +47,7 @@ def _walker_changed(record: dict, result: JobResult, cfg: DictConfig, name: str,
         stage_cfg = load_run_config(run)
     else:
         stage_cfg = OmegaConf.create(next(p.cfg for p in planned if p.name == stage))
-    lowlevel = to_plain(apply_overrides(stage_cfg, eval_overrides(spec)))["lowlevel"]
+    lowlevel = to_plain(apply_overrides(stage_cfg, eval_overrides(cfg, name)))["lowlevel"]
     now = backend_of(lowlevel).policy_fingerprint(lowlevel)
     # the policy's hash says which it is; its file's path moves with the checkout
     return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
@@ -90,7 +90,7 @@ def result_changes(
         had = ", ".join(sorted(result.evals))
         return Change("evaluations", f"its evaluations changed ({had} -> {', '.join(evals)})")
     for name in evals:  # results made before evaluations recorded their overrides are taken as they are
-        recorded, now = result.evals[name].get("overrides"), eval_overrides(cfg.experiment.evals[name])
+        recorded, now = result.evals[name].get("overrides"), eval_overrides(cfg, name)
         if recorded is not None and recorded != now:
             return _about_evaluation(name, f"changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})")
         if _walker_changed(result.evals[name], result, cfg, name, planned):

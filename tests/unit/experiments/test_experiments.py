@@ -27,6 +27,8 @@ from mapush.report.cells import PAPER
 from mapush.rundir import find_runs
 
 SMOKE = ["budget=smoke", "debug=smoke"]
+SMOKE_EPISODE = "level.episode_length_s=1"
+"""What the OCB ablation's smoke budget adds to each of its evaluations."""
 
 
 def _sweep(cli, tmp_path, *args):
@@ -78,7 +80,9 @@ def _check_ocb_results(sweeps: Path) -> None:
     assert sorted(r["method"] for r in results.values()) == ["ours", "ours_no_ocb"]
     for result in results.values():
         assert set(result["evals"]) == {"t20", "t40"}
-        assert result["evals"]["t20"]["timeout_s"] == 20.0 and result["evals"]["t40"]["timeout_s"] == 40.0
+        for name, seconds in (("t20", 20), ("t40", 40)):  # each its own timeout, then the smoke budget's 1 s
+            assert result["evals"][name]["overrides"] == [f"level.episode_length_s={seconds}", SMOKE_EPISODE]
+            assert result["evals"][name]["timeout_s"] == 1.0
         assert result["variant"].startswith("smoke_debug-smoke")
 
 

@@ -283,7 +283,7 @@ def _fake_result(cfg, identities: dict[str, str]) -> dict:
     evals = {}
     for name, spec in cfg.experiment.evals.items():
         if stage_plan.applies(spec, cfg.method.name):
-            legged = "lowlevel=go1" in stage_plan.eval_overrides(spec)
+            legged = "lowlevel=go1" in stage_plan.eval_overrides(cfg, name)
             walker = {"lowlevel_policy": {"sha256": SHIPPED_GO1_SHA256}} if legged else {}
             evals[name] = {"success_rate": 0.5, **walker}
     return {
@@ -446,12 +446,15 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
                              config_name="sweep")  # fmt: skip
     change = result_changes(again, shorter, planned_stages(shorter))
     assert (change.kind, change.evaluation) == ("evaluation", "t40")
-    assert str(change) == "evaluation 't40' changed (level.episode_length_s=40 -> level.episode_length_s=30)"
+    assert str(change) == (
+        "evaluation 't40' changed (level.episode_length_s=40 level.episode_length_s=1 -> "
+        "level.episode_length_s=30 level.episode_length_s=1)"  # each with the smoke budget's 1 s episodes after it
+    )
     assert change.concerns(again, "t40") and not change.concerns(again, "t20")
     checkpoints = sorted(Path(again.stages["mid"]).glob("model_*.pt"))
     third = run_job(shorter, job, 1)
     assert third.evals["t20"] == again.evals["t20"] and third.curve == again.curve
-    assert third.evals["t40"]["timeout_s"] == 30.0 and third.evals["t40"]["overrides"] == ["level.episode_length_s=30"]
+    assert third.evals["t40"]["overrides"] == ["level.episode_length_s=30", "level.episode_length_s=1"]
     assert sorted(Path(third.stages["mid"]).glob("model_*.pt")) == checkpoints  # nothing trained
     assert third.supersedes == SUPERSEDED and read_result(job / SUPERSEDED) == again
     # a legged evaluation names the locomotion policy that walked its robots; another one makes it stale
