@@ -63,9 +63,9 @@ def test_an_unknown_shipped_name_lists_the_shipped_ones(cli):
     assert "'sphere'" in proc.stderr and "shipped:go1" in proc.stderr
 
 
-@pytest.mark.parametrize("name", shipped_names())
+@pytest.mark.parametrize("name", [n for n in shipped_names() if n not in HIERARCHIES])  # those: reproduced below
 @pytest.mark.slow
-def test_every_shipped_policy_loads_and_runs_one_episode_without_writing_into_the_package(cli, name, tmp_path):
+def test_every_other_shipped_policy_loads_and_runs_one_episode_without_writing_into_the_package(cli, name, tmp_path):
     before = {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")}
     # one whole episode, cut to 20 s (a high level's 160 s would take 10-15 s of CPU); its eval file is named so
     proc = cli("eval", f"shipped:{name}", "--episodes", "1", "--seeds", "0", "level.episode_length_s=20")
@@ -107,9 +107,11 @@ def test_the_noise_bound_accepts_one_flipped_episode_and_refuses_a_broken_policy
 @pytest.mark.parametrize("name", HIERARCHIES)
 def test_a_shipped_hierarchy_reproduces_its_recorded_evaluation(cli, name, tmp_path):
     """`mapush eval shipped:NAME` on seed 0 gives what `mapush ship` recorded for seed 0: bit for bit on a machine
-    that computes alike (same libraries, kernels and numerics hash), within the evaluation's noise on another."""
+    that computes alike (same libraries, kernels and numerics hash), within the evaluation's noise on another; and
+    writes nothing into the package."""
     recorded = json.loads((shipped_run(name) / "eval.json").read_text())
     first = recorded["per_seed"][0]
+    before = {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")}
     episodes, seed = str(recorded["episodes"]), str(first["seed"])
     # no episode file: writing one takes an eighth of the evaluation and changes none of its figures
     proc = cli("eval", f"shipped:{name}", "--episodes", episodes, "--seeds", seed, "log.eval_episodes=0")
@@ -118,6 +120,7 @@ def test_a_shipped_hierarchy_reproduces_its_recorded_evaluation(cli, name, tmp_p
     result = json.loads(out.read_text())
     again = result["per_seed"][0]
     assert "planner_wall_clock_stops" not in again  # every plan ended on work done, none on the clock
+    assert {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")} == before  # nothing written there
     if computes_alike(result["machine"], recorded["machine"]):
         assert again["success_rate"] == first["success_rate"]
         assert again["completion_time"] == pytest.approx(first["completion_time"], abs=1e-9)
