@@ -171,9 +171,9 @@ def iterations_for(stage_cfg: DictConfig | dict, env_steps: float) -> int:
 
 def eval_overrides(cfg: DictConfig, name: str) -> list[str]:
     """The overrides of the experiment's evaluation `name`: its own, then the budget's `eval.overrides`, which every
-    evaluation of that budget takes (the smoke budgets' 1 s episodes). An evaluation is a list of overrides, or
-    `{overrides: [...], methods: [...], stage: ...}` (methods: only theirs; stage: a trained stage other than the
-    evaluated one, e.g. `mid`)."""
+    evaluation of that budget takes (the OCB ablation's smoke budget: 1 s episodes). An evaluation is a list of
+    overrides, or `{overrides: [...], methods: [...], stage: ...}` (methods: only theirs; stage: a trained stage
+    other than the evaluated one, e.g. `mid`)."""
     spec = cfg.experiment.evals[name]
     own = spec if OmegaConf.is_list(spec) else spec.get("overrides", [])
     return [*own, *budget_of(cfg).eval.get("overrides", [])]

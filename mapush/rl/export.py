@@ -32,7 +32,7 @@ def export_onnx(actor: torch.nn.Module, obs_dim: int, path: Path) -> Path:
             actor.to("cpu").eval(),
             (torch.zeros(1, obs_dim),),
             str(tmp),
-            dynamo=False,  # the weights inside the one file
+            dynamo=False,  # the TorchScript-based exporter; it writes the weights inside the one file
             dynamic_axes={"obs": {0: "batch"}, "actions": {0: "batch"}},
             input_names=["obs"],
             output_names=["actions"],
