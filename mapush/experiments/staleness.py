@@ -23,11 +23,11 @@ def still_valid(result: JobResult, cfg: DictConfig, planned: list[PlannedStage])
     same = _same_stages(result, cfg, planned)
     kept = {}
     for name, spec in cfg.experiment.evals.items():
-        record = result.evals.get(name)
+        record, overrides = result.evals.get(name), eval_overrides(cfg, name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
-        holds = holds and record.get("overrides", eval_overrides(cfg, name)) == eval_overrides(cfg, name)
+        holds = holds and record.get("overrides", overrides) == overrides
         if holds and not _walker_changed(record, result, cfg, name, planned):
-            kept[name] = {**record, "overrides": eval_overrides(cfg, name)}
+            kept[name] = {**record, "overrides": overrides}
     curve, spec = result.curve, budget_of(cfg).get("curve")
     holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
     if not holds or curve.get("every_env_steps") != spec.every_env_steps:
