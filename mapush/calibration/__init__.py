@@ -1,5 +1,6 @@
 """`mapush calibrate`: what a legged low level can do, measured, and the tracker that stands for it.
 
 `lags.py` (how fast it follows a command), `capacity.py` (how hard it pushes, what load topples it), `run.py`
-(the experiments in order, the fits written into `conf/lowlevel/tracker.yaml`, the record and its plot).
+(the experiments in order, the fits written into `conf/lowlevel/tracker.yaml`, the record and its plot);
+`reversals.py` (how often it falls under reversing commands: measured by `mapush probe reversals`, not yet fitted).
 """

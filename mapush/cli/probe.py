@@ -1,5 +1,6 @@
-"""`mapush probe`: what a trained level does inside its evaluation's episodes (commands, falls, progress), and how
-long the paths are that the high level is evaluated on (paths). The figures come from `mapush.eval.probes`."""
+"""`mapush probe`: what a trained level does inside its evaluation's episodes (commands, falls, progress), how
+long the paths are that the high level is evaluated on (paths), and how often a low level's robot falls under
+reversing commands (reversals). The figures come from `mapush.eval.probes` and `mapush.calibration.reversals`."""
 
 from __future__ import annotations
 
@@ -94,3 +95,20 @@ def paths(
     from mapush.eval.probes import path_lengths
 
     path_lengths([t for t in tasks.split(",") if t], episodes, seed, list(ctx.args))
+
+
+@probe_app.command(context_settings=PASS_THROUGH)
+def reversals(
+    ctx: typer.Context,
+    envs: int = typer.Option(64, "--envs", help="Robots per reversal rate."),
+    seconds: float = typer.Option(20.0, "--seconds", help="How long each robot walks."),
+    seed: int = typer.Option(0, "--seed", help="Draws the signs and the reversals."),
+) -> None:
+    """How often a low level's robot falls walking free under full-scale commands (the mid level's action_scale on
+    every axis) whose signs reverse at random, at 0 to 15 reversals per second per axis (overrides choose the robot;
+    default lowlevel=go1)."""
+    if envs < 1 or not seconds > 0:
+        raise BadInput(f"--envs {envs} --seconds {seconds:g}; valid: --envs 1 or more, --seconds above 0")
+    from mapush.calibration.reversals import print_reversals
+
+    print_reversals(list(ctx.args) or ["lowlevel=go1"], envs, seconds, seed)

@@ -41,3 +41,7 @@ def test_the_path_probe_prints_a_row_per_task(cli):
     header, row = proc.stdout.strip().splitlines()[-2:]
     assert header.split()[:2] == ["task", "mean"] and row.split()[0] == "cuboid"
     assert float(row.split()[-1]) >= 1.0  # a path is no shorter than the straight line
+
+
+def test_a_reversal_probe_of_no_robots_is_refused(cli):
+    assert_bad_input(cli("probe", "reversals", "--envs", "0"), "--envs 0", "valid: --envs 1 or more")

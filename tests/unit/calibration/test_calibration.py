@@ -150,3 +150,12 @@ def test_the_shipped_tracker_falls_pushing_no_more_often_than_the_go1_it_was_cal
     assert sweep["fell"].mean() <= np.mean(measured["push"]["fell"])
     speeds = np.array(measured["push"]["object_speed"])
     assert np.abs(np.median(sweep["speed"]) - np.median(speeds)) < 0.05  # it pushes as fast as the Go1 did
+
+
+def test_the_reversal_sweep_reverses_at_the_asked_rates_and_a_free_tracker_never_falls():
+    from mapush.calibration.reversals import reversal_sweep
+
+    found = reversal_sweep(["lowlevel=tracker", "sim.nthread=1"], envs=16, seconds=4.0, seed=0, rates=(0.0, 5.0))
+    assert list(found["rate_hz"]) == [0.0, 5.0]
+    assert found["reversals"][0] == 0.0 and found["reversals"][1] == pytest.approx(5.0, rel=0.1)  # 960 draws
+    assert list(found["fell"]) == [0.0, 0.0]  # the tracker falls only under contact loads (its `fall` model)

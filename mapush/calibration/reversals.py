@@ -1,0 +1,73 @@
+"""Falls under reversing commands: how often a robot topples when its full-scale command keeps changing sign.
+
+Robots walk free (the object parked away), each at the mid level's largest command on every axis (vx, vy, yaw rate at
+`level.action_scale`, random signs). At every policy step each axis's sign reverses with probability rate x dt, so
+reversals come at `rate` per second per axis on average, for `seconds`. A robot that tilts beyond the pushing
+levels' `robot_tilt` threshold has fallen. Rate 0 is a steady walk; a rate near the policy's own (50 per second)
+averages to standing still. A mid level trained on the tracker commands this way (bang-bang), and a legged robot may
+not follow it standing.
+
+The tracker does not model these falls yet (docs/fidelity.md, "Known open deviations"): this is the measurement.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mapush.calibration.capacity import DRAG_FRICTION, FALL_TILT, SETTLE_S
+from mapush.calibration.lags import free_layout
+from mapush.config import compose_config, group_file, to_plain
+from mapush.lowlevel import backend_of
+from mapush.sim.push import PushSim
+
+RATES_HZ = (0.0, 0.25, 0.5, 1.0, 2.0, 5.0, 15.0)
+"""Reversals per second per axis: from a steady walk to faster than a Go1's gait (about 3 Hz)."""
+SCALE = [float(v) for v in group_file("level", "mid").action_scale]
+"""m/s, m/s, rad/s; the full-scale command on each axis (the mid level's `action_scale`)."""
+
+
+def reversal_sweep(overrides: list[str], envs: int, seconds: float, seed: int, rates=RATES_HZ) -> dict:
+    """The robot of `overrides` under commands reversing at each of `rates` (per second per axis), `envs` robots a
+    rate, for `seconds`: `rate_hz` (R,), `fell` (R,) the share that fell, `reversals` (R,) the mean reversals per
+    second per axis that the robots got."""
+    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
+    n = envs * len(rates)
+    sim = PushSim(cfg["sim"], cfg["task"], backend_of(cfg["lowlevel"])(cfg["lowlevel"]), n)
+    sim.reset(np.arange(n), free_layout(n, DRAG_FRICTION))
+    rng = np.random.default_rng(seed)
+    flip = np.repeat(np.asarray(rates, dtype=float), envs)[:, None] * sim.dt  # (n, 1): per step, per axis
+    sign = rng.choice([-1.0, 1.0], size=(n, 3))
+    standing = torch.zeros(n, 1, 3)
+    for _ in range(round(SETTLE_S / sim.dt)):
+        sim.step(standing)
+    steps = round(seconds / sim.dt)
+    fell, flips = np.zeros(n, dtype=bool), np.zeros(n)
+    for _ in range(steps):
+        reverse = rng.random((n, 3)) < flip
+        sign = np.where(reverse, -sign, sign)
+        flips += reverse.sum(1)
+        sim.step(torch.from_numpy(sign * SCALE).float().unsqueeze(1))
+        fell |= sim.read().robot_tilt[:, 0].numpy() > FALL_TILT
+
+    def per_rate(values: np.ndarray) -> np.ndarray:
+        return values.reshape(len(rates), envs).mean(1)
+
+    return {
+        "rate_hz": np.asarray(rates, dtype=float),
+        "fell": per_rate(fell.astype(float)),
+        "reversals": per_rate(flips / 3 / (steps * sim.dt)),
+        "envs": envs,
+        "seconds": seconds,
+    }
+
+
+def print_reversals(overrides: list[str], envs: int, seconds: float, seed: int) -> dict:
+    """`mapush probe reversals`: the sweep, one line per rate."""
+    found = reversal_sweep(overrides, envs, seconds, seed)
+    robot = " ".join(overrides) or "the default low level"
+    print(f"{robot}: {envs} robots a rate, {seconds:g} s, full-scale commands {SCALE} (vx, vy, yaw rate)")
+    print(f"{'reversals/s (asked)':>20s} {'reversals/s (got)':>18s} {'fell':>6s}")
+    for rate, got, fell in zip(found["rate_hz"], found["reversals"], found["fell"], strict=True):
+        print(f"{rate:20.2f} {got:18.2f} {fell:6.2f}")
+    return found
