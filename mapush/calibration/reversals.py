@@ -4,10 +4,10 @@ Robots walk free (the object parked away), each at the mid level's largest comma
 `level.action_scale`, random signs). At every policy step each axis's sign reverses with probability rate x dt, so
 reversals come at `rate` per second per axis on average, for `seconds`. A robot that tilts beyond the pushing
 levels' `robot_tilt` threshold has fallen. Rate 0 is a steady walk; a rate near the policy's own (50 per second)
-averages to standing still. A mid level trained on the tracker commands this way (bang-bang), and a legged robot may
-not follow it standing.
+averages to standing still. It asks whether a legged robot stays up under commands as abrupt as a mid level trained on
+the tracker may give (`mapush probe commands` measures how abrupt they are).
 
-The tracker does not model these falls yet (docs/fidelity.md, "Known open deviations"): this is the measurement.
+The tracker does not model these falls (docs/fidelity.md, "Known open deviations"): this is the measurement.
 """
 
 from __future__ import annotations
