@@ -39,26 +39,31 @@ def step_commands(steps: list[float]) -> np.ndarray:
 
 
 def run_steps(
-    cfg: dict, commands: np.ndarray, layout: dict, settle_s: float, duration_s: float, configure=None, during=None
+    cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None
 ) -> dict[str, np.ndarray]:
-    """Stand for `settle_s`, then hold `commands` (E, 3) for `duration_s`; body-frame robot velocities (E, T, 3),
-    object planar speed (E, T) and robot tilt (E, T) at every policy step of the hold. `configure(sim)` may edit
-    per-env model values first; `during(sim)` runs before every step of the hold (e.g. to apply a load)."""
+    """Stand for `settle_s`, then hold `commands` (E, 3), or follow `commands(sim)`, called before every step for
+    that step's (E, 3), for `duration_s`; body-frame robot velocities (E, T, 3), object planar speed (E, T) and
+    robot tilt (E, T) at every policy step of the hold. E is the layout's. `configure(sim)` may edit per-env model
+    values first; `during(sim)` runs before every step of the hold (e.g. to apply a load)."""
+    n = len(layout["object_xy"])
     backend = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
-    sim = PushSim(cfg["sim"], cfg["task"], backend, len(commands))
+    sim = PushSim(cfg["sim"], cfg["task"], backend, n)
     if configure is not None:
         configure(sim)
-    ids = np.arange(len(commands))
-    sim.reset(ids, layout)
-    zero = torch.zeros(len(commands), 1, 3)
+    sim.reset(np.arange(n), layout)
+    zero = torch.zeros(n, 1, 3)
     for _ in range(round(settle_s / sim.dt)):
         sim.step(zero)
-    held = torch.from_numpy(commands).float().unsqueeze(1)
+
+    def as_input(values: np.ndarray) -> torch.Tensor:
+        return torch.from_numpy(values).float().unsqueeze(1)
+
+    held = None if callable(commands) else as_input(commands)
     robot_vel, object_speed, tilt = [], [], []
     for _ in range(round(duration_s / sim.dt)):
         if during is not None:
             during(sim)
-        sim.step(held)
+        sim.step(as_input(commands(sim)) if held is None else held)
         state = sim.read()
         yaw = state.robot_yaw[:, 0]
         vel = state.robot_vel[:, 0]

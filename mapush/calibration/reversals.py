@@ -13,13 +13,10 @@ The tracker does not model these falls (docs/fidelity.md, "Known open deviations
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from mapush.calibration.capacity import DRAG_FRICTION, FALL_TILT, SETTLE_S
-from mapush.calibration.lags import free_layout
+from mapush.calibration.lags import free_layout, run_steps
 from mapush.config import compose_config, group_file, to_plain
-from mapush.lowlevel import backend_of
-from mapush.sim.push import PushSim
 
 RATES_HZ = (0.0, 0.25, 0.5, 1.0, 2.0, 5.0, 15.0)
 """Reversals per second per axis: from a steady walk to faster than a Go1's gait (about 3 Hz)."""
@@ -33,22 +30,21 @@ def reversal_sweep(overrides: list[str], envs: int, seconds: float, seed: int, r
     second per axis that the robots got."""
     cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
     n = envs * len(rates)
-    sim = PushSim(cfg["sim"], cfg["task"], backend_of(cfg["lowlevel"])(cfg["lowlevel"]), n)
-    sim.reset(np.arange(n), free_layout(n, DRAG_FRICTION))
     rng = np.random.default_rng(seed)
-    flip = np.repeat(np.asarray(rates, dtype=float), envs)[:, None] * sim.dt  # (n, 1): per step, per axis
+    per_second = np.repeat(np.asarray(rates, dtype=float), envs)[:, None]  # (n, 1): reversals per axis
     sign = rng.choice([-1.0, 1.0], size=(n, 3))
-    standing = torch.zeros(n, 1, 3)
-    for _ in range(round(SETTLE_S / sim.dt)):
-        sim.step(standing)
-    steps = round(seconds / sim.dt)
-    fell, flips = np.zeros(n, dtype=bool), np.zeros(n)
-    for _ in range(steps):
-        reverse = rng.random((n, 3)) < flip
+    flips = np.zeros(n)
+
+    def reversing(sim) -> np.ndarray:
+        nonlocal sign
+        reverse = rng.random((n, 3)) < per_second * sim.dt
         sign = np.where(reverse, -sign, sign)
-        flips += reverse.sum(1)
-        sim.step(torch.from_numpy(sign * SCALE).float().unsqueeze(1))
-        fell |= sim.read().robot_tilt[:, 0].numpy() > FALL_TILT
+        flips[:] += reverse.sum(1)
+        return sign * SCALE
+
+    run = run_steps(cfg, reversing, free_layout(n, DRAG_FRICTION), SETTLE_S, seconds)
+    fell = (run["tilt"] > FALL_TILT).any(1)
+    steps = run["tilt"].shape[1]
 
     def per_rate(values: np.ndarray) -> np.ndarray:
         return values.reshape(len(rates), envs).mean(1)
@@ -56,13 +52,13 @@ def reversal_sweep(overrides: list[str], envs: int, seconds: float, seed: int, r
     return {
         "rate_hz": np.asarray(rates, dtype=float),
         "fell": per_rate(fell.astype(float)),
-        "reversals": per_rate(flips / 3 / (steps * sim.dt)),
+        "reversals": per_rate(flips / 3 / (steps * run["dt"])),
         "envs": envs,
         "seconds": seconds,
     }
 
 
-def print_reversals(overrides: list[str], envs: int, seconds: float, seed: int) -> dict:
+def print_reversals(overrides: list[str], envs: int, seconds: float, seed: int) -> None:
     """`mapush probe reversals`: the sweep, one line per rate."""
     found = reversal_sweep(overrides, envs, seconds, seed)
     robot = " ".join(overrides) or "the default low level"
@@ -70,4 +66,3 @@ def print_reversals(overrides: list[str], envs: int, seconds: float, seed: int) 
     print(f"{'reversals/s (asked)':>20s} {'reversals/s (got)':>18s} {'fell':>6s}")
     for rate, got, fell in zip(found["rate_hz"], found["reversals"], found["fell"], strict=True):
         print(f"{rate:20.2f} {got:18.2f} {fell:6.2f}")
-    return found
