@@ -51,14 +51,15 @@ def falls(
     ctx: typer.Context,
     target: Path = typer.Argument(..., help=f"A high level: {TARGET}"),
     episodes: int = typer.Option(50, "--episodes", help="Episodes, one per env (seed 0)."),
+    go_on: bool = typer.Option(False, "--go-on", help="A fall does not end the episode: see who gets up again."),
 ) -> None:
     """Where a hierarchy's Go1s fall (lowlevel=go1, then the overrides): the evaluation's exception shares, and at
     each env's first fall the quartiles of the fallen robot's distances to the object, its nearest teammate and the
-    nearest obstacle, and how often its command was at full scale."""
+    nearest obstacle, and how often its command was at full scale. With --go-on, how many fallen robots got up."""
     _check_episodes(episodes, target)
     from mapush.eval.probes import probe_falls
 
-    probe_falls(target, episodes, list(ctx.args))
+    probe_falls(target, episodes, list(ctx.args), go_on)
 
 
 @probe_app.command()

@@ -36,6 +36,8 @@ SATURATED = 0.95
 """A command at or beyond this share of the action scale counts as saturated (`commands`)."""
 FULL_SCALE = 0.99
 """A command at or beyond this share of the mid level's action scale on every axis is at full scale (`falls`)."""
+GOT_UP = 0.3
+"""rad; a fallen robot tilted back under this has got up again (`falls --go-on`)."""
 
 
 class Watch:
@@ -85,10 +87,12 @@ class CommandWatch(Watch):
 
 
 class FallWatch(Watch):
-    """Each env's first fall, and how often any robot's command is at full scale."""
+    """Each env's first fall, whether that robot got up again before its episode ended, and how often any robot's
+    command is at full scale."""
 
     def __init__(self, max_tilt: float):
         self.max_tilt, self.falls, self.seen, self.ended = max_tilt, [], None, None
+        self.fallen = self.got_up = None  # (E,): the robot of each env's first fall (-1: none); it stood again
         self.robot_steps, self.saturated_steps = 0, 0  # over every robot and step of the first episodes
 
     def capture(self, env, commands, reward, parts, done) -> None:
@@ -96,14 +100,20 @@ class FallWatch(Watch):
         if self.seen is None:
             self.seen = torch.zeros(env.num_envs, dtype=torch.bool)
             self.ended = torch.zeros(env.num_envs, dtype=torch.bool)
-        fell = (s.robot_tilt > self.max_tilt).any(1) & ~self.seen & ~self.ended
+            self.fallen = torch.full((env.num_envs,), -1)
+            self.got_up = torch.zeros(env.num_envs, dtype=torch.bool)
+        live = ~self.ended
+        fallen_tilt = s.robot_tilt.gather(1, self.fallen.clamp(min=0).unsqueeze(1)).squeeze(1)
+        self.got_up |= live & (self.fallen >= 0) & (fallen_tilt < GOT_UP)
+        fell = (s.robot_tilt > self.max_tilt).any(1) & ~self.seen & live
         saturated = (commands.abs() >= FULL_SCALE * env.mid.action_scale).all(-1)  # (E, A)
-        self.robot_steps += int((~self.ended).sum()) * env.num_agents
-        self.saturated_steps += int(saturated[~self.ended].sum())
+        self.robot_steps += int(live.sum()) * env.num_agents
+        self.saturated_steps += int(saturated[live].sum())
         self.seen |= fell
         self.ended |= done  # only first episodes count, as in the evaluation
         for e in fell.nonzero().flatten().tolist():
             a = int(s.robot_tilt[e].argmax())
+            self.fallen[e] = a
             teammates = s.robot_distance[e, a][torch.arange(env.num_agents) != a]
             blocks = (env.obstacles[e, :, :2] - s.robot_xy[e, a]).norm(dim=1)
             self.falls.append(
@@ -153,8 +163,14 @@ def probe_commands(target: Path, episodes: int, overrides: list[str]) -> None:
         print(f"  {key:12s} (vx, vy, yaw rate): " + ", ".join(f"{v:.3f}" for v in values))
 
 
-def probe_falls(target: Path, episodes: int, overrides: list[str]) -> None:
-    """Print where a hierarchy's Go1s fall over `episodes` episodes: quartiles of the distances at each first fall."""
+def probe_falls(target: Path, episodes: int, overrides: list[str], go_on: bool = False) -> None:
+    """Print where a hierarchy's Go1s fall over `episodes` episodes: quartiles of the distances at each first fall.
+    With `go_on`, a fall does not end the episode (`robot_tilt` left out of `level.terminal_exceptions`), and the
+    share of fallen robots that got up again is printed too."""
+    if go_on:
+        terminal = load_run_config(resolve_checkpoint(target)[0])["level"]["terminal_exceptions"]
+        kept = ",".join(kind for kind in terminal if kind != "robot_tilt")
+        overrides = [f"level.terminal_exceptions=[{kept}]", *overrides]
     out, watch = watched_rollout(
         target,
         ["lowlevel=go1", *overrides],
@@ -173,6 +189,9 @@ def probe_falls(target: Path, episodes: int, overrides: list[str]) -> None:
         print(f"  {key:11s} " + " / ".join(f"{q:.2f}" for q in np.nanpercentile(values, [25, 50, 75])))
     saturated = np.mean([f["saturated_command"] for f in watch.falls])
     print(f"  commands at full scale on all three axes: {saturated:.2f} of the falls, {overall:.2f} of all robot-steps")
+    if go_on:
+        print(f"  got up again (tilt back under {GOT_UP} rad) before the episode ended: "
+              f"{int(watch.got_up.sum())} of {len(watch.falls)} fallen robots")  # fmt: skip
 
 
 def probe_progress(target: Path, episodes: int, compare: list[str]) -> None:

@@ -1,5 +1,6 @@
 """`mapush probe`'s watchers (`mapush.eval.probes`), checked on hand-placed states: where a push leaves the object
-and how long robots stand ahead of it (progress), and how hard the commands drive the robots (commands)."""
+and how long robots stand ahead of it (progress), how hard the commands drive the robots (commands), and where
+robots fall and whether they get up (falls)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from types import SimpleNamespace
 import pytest
 import torch
 
-from mapush.eval.probes import CommandWatch, PushWatch
+from mapush.eval.probes import CommandWatch, FallWatch, PushWatch
 
 
 def _env(object_xy, robot_xy, success):
@@ -51,3 +52,28 @@ def test_command_figures_count_only_first_episodes_as_shares_of_the_action_scale
     assert figures["mean_abs"] == pytest.approx([1.5 / 3, 0.5 / 3, 0.5 / 3])
     assert figures["saturated"] == pytest.approx([1 / 3, 0.0, 0.0])
     assert figures["mean_change"] == pytest.approx([1 / 3, 0.0, 0.0])  # env 0's step from 1 back to 0 on vx
+
+
+def _tilted(tilt, time_s=1.0):
+    """Three envs of two robots in a row 1 m apart, the object at the origin, no obstacles; robot tilts (3, 2)."""
+    robot_xy = torch.tensor([[[1.0, 0.0], [2.0, 0.0]]] * 3)
+    state = SimpleNamespace(
+        robot_tilt=torch.tensor(tilt), robot_xy=robot_xy, object_xy=torch.zeros(3, 2),
+        robot_distance=(robot_xy.unsqueeze(2) - robot_xy.unsqueeze(1)).norm(dim=-1),
+    )  # fmt: skip
+    return SimpleNamespace(
+        state=state, num_envs=3, num_agents=2, obstacles=torch.zeros(3, 0, 3),
+        episode_time_s=torch.full((3,), time_s), mid=SimpleNamespace(action_scale=torch.tensor([0.5, 0.5, 0.5])),
+    )  # fmt: skip
+
+
+def test_a_fallen_robot_that_stands_again_is_told_from_one_that_stays_down():
+    watch = FallWatch(max_tilt=0.8)
+    still = torch.zeros(3, 2, 3)
+    # step 1: env 0's robot 1 and env 1's robot 0 fall; env 2 ends its first episode upright
+    watch.capture(_tilted([[0.1, 1.2], [1.5, 0.1], [0.1, 0.1]]), still, None, None, torch.tensor([False, False, True]))
+    # step 2: env 0's fallen robot stands again; env 1's stays down; env 2's second episode falls (not counted)
+    watch.capture(_tilted([[0.1, 0.2], [2.9, 0.1], [1.5, 0.1]], 2.0), still, None, None, torch.zeros(3, dtype=bool))
+    assert [(f["time_s"], f["object_m"], f["teammate_m"]) for f in watch.falls] == [(1.0, 2.0, 1.0), (1.0, 1.0, 1.0)]
+    assert watch.fallen.tolist() == [1, 0, -1]
+    assert watch.got_up.tolist() == [True, False, False]
