@@ -3,8 +3,12 @@ figures for the smoke run (slow: each rolls out, or plans, a few episodes)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from stand_ins import assert_bad_input
+
+import mapush
 
 
 @pytest.mark.parametrize("probe", ["commands", "falls", "progress"])
@@ -45,3 +49,12 @@ def test_the_path_probe_prints_a_row_per_task(cli):
 
 def test_a_reversal_probe_of_no_robots_is_refused(cli):
     assert_bad_input(cli("probe", "reversals", "--envs", "0"), "--envs 0", "valid: --envs 1 or more")
+
+
+@pytest.mark.slow
+def test_the_fall_probe_lets_episodes_go_on_after_a_fall(cli):
+    shipped = Path(mapush.__file__).parent / "policies" / "cuboid" / "high"  # 1 s episodes on Go1s: no one falls
+    proc = cli("probe", "falls", shipped, "--episodes", "2", "--go-on", "level.episode_length_s=1", "sim.nthread=1")
+    assert proc.returncode == 0, proc.stderr
+    first, last = proc.stdout.strip().splitlines()[-2:]
+    assert first.startswith("success ") and last.startswith("0 envs with a fall")
