@@ -19,6 +19,8 @@ OTHERWISE_NOTE = (
     f"{OTHERWISE} Made otherwise than the experiment plans now (an earlier recipe), kept until trained again "
     "(`rerun_changed=true`):"
 )
+OTHERWISE_LEGEND = f"{OTHERWISE} made otherwise than the experiment plans now (an earlier recipe)"
+"""The same mark's note under a plot's title."""
 
 
 @dataclass

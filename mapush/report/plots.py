@@ -13,12 +13,27 @@ import numpy as np
 
 from mapush.eval.curve_points import first_reaching, tail_gain
 from mapush.experiments.results import JobResult
-from mapush.report.formats import Finding
+from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Finding
 
 
 def curve_of(result: JobResult, stage: str | None = None) -> dict | None:
     """A job's learning curve: its evaluated stage's (`stage` None), or the own curve of the stage named."""
     return result.curve if stage is None else (result.stage_curves or {}).get(stage)
+
+
+def curve_made_otherwise(result: JobResult, stage: str | None = None) -> bool:
+    """Whether the job was made otherwise than its experiment plans now in a way that concerns this curve (as the
+    tables mark cells, `Change.concerns`): the evaluated stage's curve as its evaluation; a stage's own curve when
+    that stage or one before it changed, or the whole job did."""
+    change = result.made_otherwise
+    if change is None:
+        return False
+    if stage is None:
+        return change.concerns(result, (result.curve or {}).get("eval", ""))
+    if change.kind != "stages":
+        return change.kind != "evaluation"
+    order = list(result.stages)
+    return any(s not in order or stage not in order or order.index(s) <= order.index(stage) for s in change.stages)
 
 
 def drawn_stages(results: list[JobResult]) -> list[str]:
@@ -118,6 +133,12 @@ def curves_plot(
     """Evaluated success against env-steps, mean +- std over seeds: one panel per key of `panels`, one line per
     label (`{panel: {label: results}}`), of the evaluated stages' curves or of `stage`'s own. Returns False (and
     draws nothing) when no result has such a curve."""
+    otherwise = {
+        (p, k)
+        for p, lines in panels.items()
+        for k, v in lines.items()
+        if any(curve_made_otherwise(r, stage) for r in v)
+    }
     drawn = {p: {k: seed_curves(v, stage) for k, v in lines.items()} for p, lines in panels.items()}
     drawn = {p: {k: v for k, v in lines.items() if v} for p, lines in drawn.items()}
     drawn = {p: lines for p, lines in drawn.items() if lines}
@@ -137,7 +158,7 @@ def curves_plot(
     for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
         for label, per_seed in lines.items():
             x, mean, std = mean_curve(per_seed)
-            line_label = f"{label} ({len(per_seed)} seeds)"
+            line_label = f"{label} ({len(per_seed)} seeds)" + (f" {OTHERWISE}" if (panel, label) in otherwise else "")
             ax.plot(x / 1e6, 100 * mean, marker="o", ms=3, color=color[label], label=line_label)
             ax.fill_between(x / 1e6, 100 * (mean - std), 100 * (mean + std), color=color[label], alpha=0.2)
         ax.set_title(panel)
@@ -145,6 +166,10 @@ def curves_plot(
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False)  # off the curves
     axes[0][0].set_ylabel("evaluated success (%)")
+    if otherwise & {(p, k) for p, lines in drawn.items() for k in lines}:
+        title += f"\n{OTHERWISE_LEGEND}"
+        height += 0.25
+        fig.set_figheight(height)
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

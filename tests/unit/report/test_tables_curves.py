@@ -386,3 +386,35 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     assert "24 kg: 2 (margin " in str(found) and str(found).endswith("64 kg: none of 4")
     team_plot(table, tmp_path / "team.png")
     assert (tmp_path / "team.png").stat().st_size > 0
+
+
+def test_curves_from_jobs_made_otherwise_are_marked_in_the_legend(tmp_path, monkeypatch):
+    import matplotlib.figure
+
+    from mapush.experiments.results import Change
+    from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND
+    from mapush.report.plots import curves_plot
+
+    def job(name: str, change: Change | None) -> JobResult:
+        points = [{"env_steps": k * 1e6, "success_rate": 0.1 * k} for k in (1, 2, 3)]
+        stages = {"mid": "stages/m1/mid/run", "high": "stages/h1/high/run"}
+        evals = {"main": {"success_rate": 0.3, "checkpoint": "stages/h1/high/run/model_48.pt"}}
+        return JobResult(
+            job_dir=name, method="ours", stages=stages, evals=evals, made_otherwise=change,
+            curve={"eval": "main", "points": points}, stage_curves={"mid": {"points": points}},
+        )  # fmt: skip
+
+    drawn = {}
+
+    def keep(fig, path, **kwargs):  # what the figure shows, instead of a PNG
+        drawn[Path(path).name] = [fig._suptitle.get_text()] + [
+            t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
+        ]
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep)
+    high_only = Change("stages", "high changed", stages=("high",))
+    panels = {"Cuboid": {"SA": [job("a", high_only)], "Ours": [job("b", None)]}}
+    curves_plot(panels, tmp_path / "main.png", "Main")
+    curves_plot(panels, tmp_path / "mid.png", "Mid", stage="mid")
+    assert drawn["main.png"] == [f"Main\n{OTHERWISE_LEGEND}", f"SA (1 seeds) {OTHERWISE}", "Ours (1 seeds)"]
+    assert drawn["mid.png"] == ["Mid", "SA (1 seeds)", "Ours (1 seeds)"]  # its mid level did not change
