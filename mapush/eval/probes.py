@@ -91,25 +91,23 @@ class FallWatch(Watch):
     command is at full scale."""
 
     def __init__(self, max_tilt: float):
-        self.max_tilt, self.falls, self.seen, self.ended = max_tilt, [], None, None
+        self.max_tilt, self.falls, self.ended = max_tilt, [], None
         self.fallen = self.got_up = None  # (E,): the robot of each env's first fall (-1: none); it stood again
         self.robot_steps, self.saturated_steps = 0, 0  # over every robot and step of the first episodes
 
     def capture(self, env, commands, reward, parts, done) -> None:
         s = env.state
-        if self.seen is None:
-            self.seen = torch.zeros(env.num_envs, dtype=torch.bool)
+        if self.ended is None:
             self.ended = torch.zeros(env.num_envs, dtype=torch.bool)
             self.fallen = torch.full((env.num_envs,), -1)
             self.got_up = torch.zeros(env.num_envs, dtype=torch.bool)
         live = ~self.ended
         fallen_tilt = s.robot_tilt.gather(1, self.fallen.clamp(min=0).unsqueeze(1)).squeeze(1)
         self.got_up |= live & (self.fallen >= 0) & (fallen_tilt < GOT_UP)
-        fell = (s.robot_tilt > self.max_tilt).any(1) & ~self.seen & live
+        fell = (s.robot_tilt > self.max_tilt).any(1) & (self.fallen < 0) & live
         saturated = (commands.abs() >= FULL_SCALE * env.mid.action_scale).all(-1)  # (E, A)
         self.robot_steps += int(live.sum()) * env.num_agents
         self.saturated_steps += int(saturated[live].sum())
-        self.seen |= fell
         self.ended |= done  # only first episodes count, as in the evaluation
         for e in fell.nonzero().flatten().tolist():
             a = int(s.robot_tilt[e].argmax())

@@ -51,10 +51,16 @@ class Change:
         any other change (the set of evaluations, the curve) the whole job."""
         if self.kind == "evaluation":
             return self.evaluation == name
-        order, evaluated = list(result.stages), result.evaluated_stage(name)
-        if self.kind != "stages" or evaluated is None:
-            return True
-        return any(stage not in order or order.index(stage) <= order.index(evaluated) for stage in self.stages)
+        evaluated = result.evaluated_stage(name)
+        return evaluated is None or self.concerns_stage(result, evaluated)
+
+    def concerns_stage(self, result: JobResult, stage: str) -> bool:
+        """Whether the change concerns what the result's `stage` learned (its own curve): changed stages when one
+        of them is that stage or comes before it in the plan; a changed evaluation never; any other change always."""
+        if self.kind != "stages":
+            return self.kind != "evaluation"
+        order = list(result.stages)
+        return any(s not in order or order.index(s) <= order.index(stage) for s in self.stages)
 
 
 @dataclass

@@ -15,11 +15,9 @@ MISSING = "\u2014"
 """An empty cell: no finished job behind it."""
 OTHERWISE = "\u2020"
 """Marks a cell with seeds from jobs made otherwise than their experiment plans them now: an earlier recipe."""
-OTHERWISE_NOTE = (
-    f"{OTHERWISE} Made otherwise than the experiment plans now (an earlier recipe), kept until trained again "
-    "(`rerun_changed=true`):"
-)
-OTHERWISE_LEGEND = f"{OTHERWISE} made otherwise than the experiment plans now (an earlier recipe)"
+MADE_OTHERWISE = "made otherwise than the experiment plans now (an earlier recipe)"
+OTHERWISE_NOTE = f"{OTHERWISE} {MADE_OTHERWISE.capitalize()}, kept until trained again (`rerun_changed=true`):"
+OTHERWISE_LEGEND = f"{OTHERWISE} {MADE_OTHERWISE}"
 """The same mark's note under a plot's title."""
 
 

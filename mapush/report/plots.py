@@ -22,18 +22,15 @@ def curve_of(result: JobResult, stage: str | None = None) -> dict | None:
 
 
 def curve_made_otherwise(result: JobResult, stage: str | None = None) -> bool:
-    """Whether the job was made otherwise than its experiment plans now in a way that concerns this curve (as the
-    tables mark cells, `Change.concerns`): the evaluated stage's curve as its evaluation; a stage's own curve when
-    that stage or one before it changed, or the whole job did."""
+    """Whether the job was made otherwise than its experiment plans now in a way that concerns this curve, as the
+    tables mark cells (`Change.concerns`): the evaluated stage's curve as its evaluation, a stage's own as that
+    stage (`Change.concerns_stage`)."""
     change = result.made_otherwise
-    if change is None:
+    if change is None or curve_of(result, stage) is None:
         return False
     if stage is None:
-        return change.concerns(result, (result.curve or {}).get("eval", ""))
-    if change.kind != "stages":
-        return change.kind != "evaluation"
-    order = list(result.stages)
-    return any(s not in order or stage not in order or order.index(s) <= order.index(stage) for s in change.stages)
+        return change.concerns(result, result.curve.get("eval", ""))
+    return change.concerns_stage(result, stage)
 
 
 def drawn_stages(results: list[JobResult]) -> list[str]:
@@ -133,17 +130,14 @@ def curves_plot(
     """Evaluated success against env-steps, mean +- std over seeds: one panel per key of `panels`, one line per
     label (`{panel: {label: results}}`), of the evaluated stages' curves or of `stage`'s own. Returns False (and
     draws nothing) when no result has such a curve."""
-    otherwise = {
-        (p, k)
-        for p, lines in panels.items()
-        for k, v in lines.items()
-        if any(curve_made_otherwise(r, stage) for r in v)
-    }
     drawn = {p: {k: seed_curves(v, stage) for k, v in lines.items()} for p, lines in panels.items()}
     drawn = {p: {k: v for k, v in lines.items() if v} for p, lines in drawn.items()}
     drawn = {p: lines for p, lines in drawn.items() if lines}
     if not drawn:
         return False
+    otherwise = {
+        (p, k) for p, lines in drawn.items() for k in lines if any(curve_made_otherwise(r, stage) for r in panels[p][k])
+    }
     import matplotlib
 
     matplotlib.use("Agg")
@@ -153,6 +147,7 @@ def curves_plot(
     color = {label: f"C{k % 10}" for k, label in enumerate(labels)}  # one colour per label in every panel
     rows = -(-max(len(lines) for lines in drawn.values()) // 2)  # legend rows under each panel, 2 entries per row
     title = textwrap.fill(title, 48 * len(drawn))  # about 48 characters of the title fit above a 4.6-inch panel
+    title += f"\n{OTHERWISE_LEGEND}" if otherwise else ""
     height = 3.4 + 0.22 * rows + 0.25 * title.count("\n")
     fig, axes = plt.subplots(1, len(drawn), figsize=(4.6 * len(drawn), height), squeeze=False, sharey=True)
     for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
@@ -166,10 +161,6 @@ def curves_plot(
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False)  # off the curves
     axes[0][0].set_ylabel("evaluated success (%)")
-    if otherwise & {(p, k) for p, lines in drawn.items() for k in lines}:
-        title += f"\n{OTHERWISE_LEGEND}"
-        height += 0.25
-        fig.set_figheight(height)
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
