@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import datetime
 import importlib.util
+import json
 import os
 import re
 import subprocess
@@ -22,6 +23,8 @@ from mapush.schema import check_config
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
 """The `mapush/conf/` tree: package data, so a checkout, an editable install and a wheel all compose alike."""
+META_FILE = "meta.json"
+"""What made a run (command, seed, git commit), written last: a dir holding it is a run (`rundir.find_runs`)."""
 
 
 def physx_average(coefficients, other: float) -> list[float] | float:
@@ -214,7 +217,30 @@ def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], comman
         write_yaml(directory / "overrides.yaml", list(overrides))
         write_yaml(directory / "config.yaml", cfg, resolve=True)
     write_yaml(hydra_dir / "hydra.yaml", {"hydra": hydra_node})
-    write_json(run_dir / "meta.json", stamp(meta))
+    write_json(run_dir / META_FILE, stamp(meta))
+
+
+def lengthen_run(run_dir: Path, iterations: int, command: str, meta_from: Path | None = None) -> None:
+    """Record that run `run_dir` trains on to `iterations`: `train.iterations` in its `config.yaml` (and `.hydra/`'s),
+    the override at the end of its `overrides.yaml`, and the step in `meta.json`'s `lengthened` (the iterations it
+    had, the commit, the command, when), so that the run says what it learned and a cut one resumes to its end.
+
+    `meta_from`: the `meta.json` to extend (a copied run's source); `meta.json`, what makes a dir a run, is written
+    last."""
+    run_dir = Path(run_dir)
+    before = int(OmegaConf.load(run_dir / "config.yaml").train.iterations)
+    for directory in (run_dir / ".hydra", run_dir):
+        if not (directory / "config.yaml").is_file():
+            continue
+        cfg = OmegaConf.load(directory / "config.yaml")
+        cfg.train.iterations = int(iterations)
+        overrides = list(OmegaConf.load(directory / "overrides.yaml"))
+        write_yaml(directory / "overrides.yaml", [*overrides, f"train.iterations={int(iterations)}"])
+        write_yaml(directory / "config.yaml", cfg)
+    meta = json.loads(Path(meta_from or run_dir / META_FILE).read_text())
+    step = {"from_iterations": before, "to_iterations": int(iterations), "command": command, **git_state()}
+    meta["lengthened"] = [*meta.get("lengthened", []), {**step, "at": datetime.datetime.now().isoformat()}]
+    write_json(run_dir / META_FILE, meta)
 
 
 def load_run_config(run_dir: Path) -> DictConfig:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from mapush.config import load_run_config
+from mapush.config import META_FILE, load_run_config
 from mapush.errors import BadInput
 
 CHECKPOINT = re.compile(r"model_(\d+)\.pt$")
@@ -47,7 +47,7 @@ def shipped_run(name: str) -> Path:
 
 def find_runs(root: Path) -> list[Path]:
     """The run dirs under `root` (those holding `meta.json`; not their `.hydra/` copies), in name order."""
-    return sorted(p.parent for p in Path(root).glob("**/meta.json"))
+    return sorted(p.parent for p in Path(root).glob(f"**/{META_FILE}"))
 
 
 def checkpoints(run_dir: Path) -> list[Path]:

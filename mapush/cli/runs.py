@@ -44,7 +44,7 @@ def train(
         prepare_training_video(load_run_config(resume))  # before MuJoCo is imported: it picks the GL backend
         from mapush.commands import train as training
 
-        training.resume(resume, iterations)
+        training.resume(resume, iterations, command=f"mapush train --resume {resume} {' '.join(overrides)}".strip())
         return
     cfg = compose_config(overrides)
     prepare_training_video(cfg)

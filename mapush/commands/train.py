@@ -10,14 +10,14 @@ from pathlib import Path
 from omegaconf import DictConfig
 
 from mapush.atomic import remove_leftovers
-from mapush.config import load_run_config, new_run_dir, save_run_config, to_plain
+from mapush.config import lengthen_run, load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.levels import build, checked, load_into, scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
 from mapush.rl.runner import export_policy, learn
-from mapush.rundir import POLICY_FILE, checkpoint_iteration, checkpoints
+from mapush.rundir import ONNX_FILE, POLICY_FILE, checkpoint_iteration, checkpoints
 from mapush.schema import check_config
 from mapush.viz.video import attach_training_video
 
@@ -56,12 +56,16 @@ def _unmake(run_dir: Path, existed: bool, run_root: Path) -> None:
         parent.rmdir()
 
 
-def resume(run_dir: Path, iterations: int | None, nthread: int | None = None) -> Path:
+def resume(run_dir: Path, iterations: int | None, nthread: int | None = None, command: str = "") -> Path:
     """Continue a cut run from its latest checkpoint up to its configured (or the given) iteration count (a run cut
     after its last iteration but before its export is exported), with
     `nthread` MuJoCo threads if given (a run cut on a machine of other cores; threads are not what it learns, and
-    `Perf/threads` records each iteration's), else with those of its config."""
+    `Perf/threads` records each iteration's), else with those of its config.
+
+    More iterations than the run was made for lengthen it: recorded in the run first (`lengthen_run`, `command`
+    saying by what), and a finished run's exported policy removed, as it no longer holds the run's last iteration."""
     cfg = load_run_config(run_dir)
+    longer = iterations is not None and iterations > int(cfg.train.iterations)
     if iterations is not None:
         cfg.train.iterations = iterations
     if nthread is not None:
@@ -77,6 +81,10 @@ def resume(run_dir: Path, iterations: int | None, nthread: int | None = None) ->
     if done >= cfg.train.iterations:
         raise BadInput(f"run {str(run_dir)!r} already has {done} iterations; valid: train.iterations=N with N > {done}")
     print(run_dir, flush=True)
+    if longer:
+        for name in (POLICY_FILE, ONNX_FILE):
+            (Path(run_dir) / name).unlink(missing_ok=True)
+        lengthen_run(Path(run_dir), int(iterations), command or f"mapush train --resume (to {iterations} iterations)")
     remove_leftovers(Path(run_dir))  # temp files of the writers the cut killed
     _repair_cut_logs(Path(run_dir))
     _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1])

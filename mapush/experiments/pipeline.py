@@ -26,7 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mapush.atomic import write_json
 from mapush.commands import train as training
-from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
+from mapush.config import apply_overrides, compose_config, lengthen_run, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
@@ -51,7 +51,7 @@ from mapush.experiments.stage_plan import (
 )
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes, still_valid
-from mapush.rundir import PACKAGE, POLICY_FILE, checkpoints, find_runs, is_complete
+from mapush.rundir import META_FILE, ONNX_FILE, PACKAGE, POLICY_FILE, checkpoints, find_runs, is_complete
 
 LOADED_AT = time.time()
 """When this process imported mapush: a sweep's workers keep the code they started with for every job they run,
@@ -104,11 +104,13 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
     torch.set_num_threads(threads)
     budget = budget_of(cfg)
     runs: dict[str, Path] = {}
+    root, identities = Path(cfg.sweep_root), {stage.name: stage.identity for stage in planned}
     for stage in planned:
         overrides = [_resolve_stage_refs(o, runs) for o in stage.overrides] + [f"sim.nthread={threads}"]
-        directory = stages.stage_dir(Path(cfg.sweep_root), stage.identity)
+        directory = stages.stage_dir(root, stage.identity)
         with stages.held(directory):
-            runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval, threads)
+            twin = None if find_runs(directory) else stages.shorter_twin(root, stage.cfg, stage.overrides, identities)
+            runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval, threads, twin)
     evaluated = runs[evaluated_stage(cfg)]
     started = time.perf_counter()  # the evaluations and the learning curve: the job's cost beside its stages'
     evals = {}
@@ -225,9 +227,12 @@ def _curve(cfg: DictConfig, evaluated: Path) -> dict | None:
     return {**OmegaConf.to_container(curve), "rule": rule, "points": points}
 
 
-def train_stage(stage_dir: Path, overrides: list[str], iterations: int, save_interval: int, threads: int) -> Path:
+def train_stage(
+    stage_dir: Path, overrides: list[str], iterations: int, save_interval: int, threads: int, twin: Path | None = None
+) -> Path:
     """The finished run of one stage in its store dir: reused, resumed from its last checkpoint (with the job's
-    `threads`, not those of the process it was cut in), or trained from scratch for `iterations`."""
+    `threads`, not those of the process it was cut in), trained on from `twin` (the run of the same stage with a
+    shorter budget, `stages.shorter_twin`), or trained from scratch for `iterations`."""
     for run_dir in find_runs(stage_dir):
         if (run_dir / POLICY_FILE).is_file():
             return run_dir
@@ -247,8 +252,27 @@ def train_stage(stage_dir: Path, overrides: list[str], iterations: int, save_int
     for key, value in budget.items():
         OmegaConf.update(cfg, key, value)
     overrides = [*overrides, *(f"{key}={value}" for key, value in budget.items())]  # the run's record
+    command = f"mapush sweep (stage of {stage_dir.parent})"
+    if twin is not None:
+        return _train_on(twin, stage_dir, to_plain(cfg), threads, command)
     stages.write_identity(stage_dir, to_plain(cfg), stage_dir.name)
-    return training.train(cfg, overrides, command=f"mapush sweep (stage of {stage_dir.parent})")
+    return training.train(cfg, overrides, command=command)
+
+
+def _train_on(twin: Path, stage_dir: Path, cfg: dict, threads: int, command: str) -> Path:
+    """The stage's run made by training its shorter `twin` on: a copy of the twin's run (checkpoints hard-linked;
+    its exported policy and own curve left behind, as they hold the twin's end) lengthened to the stage's iterations
+    (`lengthen_run`), then resumed. Its `stage.yaml` names the twin (`lengthened_from`)."""
+    target = Path(stage_dir).joinpath(*stages.store_parts(twin)[2:])  # level, subject, run: as the twin's
+    if target.exists():
+        shutil.rmtree(target)  # a copy cut before its meta.json made it a run
+    left_behind = shutil.ignore_patterns(META_FILE, POLICY_FILE, ONNX_FILE, STAGE_CURVE)
+    shutil.copytree(twin, target, ignore=left_behind, copy_function=stages.link_weights)
+    lengthen_run(target, int(cfg["train"]["iterations"]), command, meta_from=twin / META_FILE)
+    origin = {"identity": stages.identity_of(twin), "iterations": int(load_run_config(twin).train.iterations)}
+    stages.write_identity(stage_dir, cfg, Path(stage_dir).name, lengthened_from=origin)
+    print(f"mapush: stage {Path(stage_dir).name} trains on from stage {origin['identity']} ({twin})")
+    return training.resume(target, None, threads)
 
 
 def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:

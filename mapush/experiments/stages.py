@@ -91,6 +91,37 @@ def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def shorter_twin(sweep_root: Path, cfg: dict, overrides: list[str], identities: dict[str, str]) -> Path | None:
+    """The finished run of the longest stage in the store that is this stage (`cfg`, `overrides` and the earlier
+    stages' `identities`, as `identity` takes them) but for fewer iterations: lengthening a budget trains such a
+    stage on from its end rather than from scratch. PPO here keeps no schedule over the planned iterations (its
+    learning rate follows the KL), so a stage trained on is one trained longer, as a cut run resumed is the run."""
+    want, iterations = _identity_less_budget(cfg, overrides, identities), int(cfg["train"]["iterations"])
+    refs = [(o.partition("=")[0], o.partition("=")[2][len(STAGE_REF) :]) for o in overrides if _is_ref(o)]
+    found: tuple[int, Path] | None = None
+    for record in sorted((Path(sweep_root) / STORE).glob(f"*/{IDENTITY_FILE}")):
+        other = _record(record).get("config")
+        if not other or shape(other) != shape(cfg) or not int(other["train"]["iterations"]) < iterations:
+            continue
+        paths = {name: OmegaConf.select(OmegaConf.create(other), key) for key, name in refs}
+        if any(not path or identity_of(Path(path)) is None for path in paths.values()):
+            continue  # a stage that built on a run outside a store: not comparable
+        theirs = {name: identity_of(Path(path)) for name, path in paths.items()}
+        run = next((r for r in find_runs(record.parent) if (r / POLICY_FILE).is_file()), None)
+        if run is None or _identity_less_budget(other, overrides, theirs) != want:
+            continue
+        if found is None or int(other["train"]["iterations"]) > found[0]:
+            found = (int(other["train"]["iterations"]), run)
+    return None if found is None else found[1]
+
+
+def _identity_less_budget(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str:
+    """`identity` with `train.iterations` left out: alike for two stages that differ only in how long they learn."""
+    view = copy.deepcopy(cfg)
+    view["train"].pop("iterations")
+    return identity(view, overrides, identities)
+
+
 def stage_dir(sweep_root: Path, key: str) -> Path:
     """Where the run of stage `key` lives (its run dir is below, as `mapush train` names it)."""
     return Path(sweep_root) / STORE / key
@@ -204,13 +235,14 @@ def _parsed_record(path: str, _size: int, _mtime_ns: int) -> dict:
 
 
 def copy_run(run_dir: Path, target: Path) -> None:
-    """Copy run `run_dir` to `target` in a store: weights hard-linked (written once), everything else copied (a
-    resumed run appends to its logs)."""
-
-    def link_weights(source: str, destination: str) -> None:
-        (os.link if source.endswith((".pt", ".onnx")) else shutil.copy2)(source, destination)
-
+    """Copy run `run_dir` to `target` in a store (`link_weights`)."""
     shutil.copytree(run_dir, target, copy_function=link_weights)
+
+
+def link_weights(source: str, destination: str) -> None:
+    """A `copytree` copy function for runs: weights hard-linked (written once), everything else copied (a resumed
+    run appends to its logs)."""
+    (os.link if source.endswith((".pt", ".onnx")) else shutil.copy2)(source, destination)
 
 
 @contextlib.contextmanager

@@ -19,7 +19,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Glob
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import CONF_DIR, compose_config, group_file, group_options, overrides_name, to_plain
+from mapush.config import CONF_DIR, compose_config, group_file, group_options, load_run_config, overrides_name, to_plain
 from mapush.errors import BadInput, first_line
 from mapush.experiments import stages
 from mapush.experiments.archive import archived_result, load_results
@@ -208,7 +208,8 @@ def dry_run(overrides: list[str]) -> list[dict]:
 
     Finished jobs are left out (those whose experiment changed since are listed; see `rerun_changed`). Each row of
     the others: job, stage, identity, what happens (`train`, `resume from N/M`, `reuse` a finished stage, or `share`
-    a stage an earlier job of this sweep trains) and the stage's env-steps.
+    a stage an earlier job of this sweep trains, or `train on N/M` a finished stage that is this one with a shorter
+    budget, `stages.shorter_twin`) and the stage's env-steps.
     """
     full = sweep_overrides(overrides)
     combos = job_combos(full)
@@ -233,16 +234,22 @@ def dry_run(overrides: list[str]) -> list[dict]:
             changed.append(f"{job}: {why}")
             if not cfg.rerun_changed:
                 continue
+        identities = {stage.name: stage.identity for stage in planned}
         for stage in planned:
             done = stages.trained_iterations(stages.stage_dir(Path(cfg.sweep_root), stage.identity))
             state = stages.status_of(done, stage.iterations)
+            twin = None if done or stage.identity in seen else \
+                stages.shorter_twin(Path(cfg.sweep_root), stage.cfg, stage.overrides, identities)  # fmt: skip
+            if twin is not None:
+                done = int(load_run_config(twin).train.iterations)
+                state = f"train on {done}/{stage.iterations}"
             action = "share" if stage.identity in seen else {"finished": "reuse", "new": "train"}.get(state, state)
             left = 0.0 if done is None or action == "share" else stage.env_steps * (1 - done / stage.iterations)
             rate = rates.get(stage.shape)
             seen.add(stage.identity)
             rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action,
                          "env_steps": stage.env_steps, "core_s": None if rate is None else rate * left})  # fmt: skip
-    to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith("resume")]
+    to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith(("resume", "train on"))]
     print(f"sweep {hydra_cfg.sweep.dir}: {len(combos)} jobs, {finished} finished; {len(rows)} stages to run; "
           f"{len(to_train)} to train ({sum(r['env_steps'] for r in to_train) / 1e6:.1f}M env-steps), "
           f"{sum(r['action'] == 'reuse' for r in rows)} finished to reuse, "

@@ -9,6 +9,7 @@ import shutil
 import pytest
 import torch
 from mcap.reader import make_reader
+from omegaconf import OmegaConf
 
 
 def iterations_logged(path) -> set[int]:
@@ -46,6 +47,22 @@ def test_resume_does_not_repeat_the_loaded_iteration(resumed):
     log = (resumed / "train.log").read_text()
     assert log.count("Learning iteration 1/") == 1
     assert "Learning iteration 2/4" in log
+
+
+def test_a_run_trained_longer_records_its_new_budget(resumed, smoke_run):
+    # config.yaml says what the run learned (a cut one resumes to its end); meta.json says when and by what
+    assert OmegaConf.load(resumed / "config.yaml").train.iterations == 4
+    assert OmegaConf.load(resumed / ".hydra" / "config.yaml").train.iterations == 4
+    assert list(OmegaConf.load(resumed / "overrides.yaml"))[-1] == "train.iterations=4"
+    (step,) = json.loads((resumed / "meta.json").read_text())["lengthened"]
+    assert (step["from_iterations"], step["to_iterations"]) == (2, 4)
+    assert step["command"].startswith("mapush train --resume") and "commit" in step
+    # the exported policy is the last iteration's, not the 2-iteration run's
+    last = torch.load(resumed / "model_3.pt", weights_only=False)["actor_state_dict"]
+    first = torch.load(smoke_run / "model_1.pt", weights_only=False)["actor_state_dict"]
+    obs = torch.randn(4, 10)
+    assert not torch.equal(torch.jit.load(resumed / "policy.pt")(obs), torch.jit.load(smoke_run / "policy.pt")(obs))
+    assert any(not torch.equal(last[k], first[k]) for k in last)
 
 
 def test_resume_keeps_the_earlier_checkpoints(resumed, smoke_run):

@@ -232,6 +232,85 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     assert drawn.stat().st_mtime_ns == drawn_at
 
 
+def _stored(root: Path, stage, iterations: int, finished: bool = True) -> Path:
+    """A stage of `stage`'s config at `iterations` in the store at `root`, with a run (nothing trained): finished
+    (its exported policy there) or cut."""
+    cfg = json.loads(json.dumps(stage.cfg))
+    cfg["train"]["iterations"] = iterations
+    key = stages.identity(cfg, [], {})
+    stages.write_identity(stages.stage_dir(root, key), cfg, key)
+    run = stages.stage_dir(root, key) / "mid" / "cylinder" / f"run{iterations}"
+    run.mkdir(parents=True)
+    (run / "meta.json").write_text("{}")
+    if finished:
+        (run / "policy.pt").write_bytes(b"")
+    return run
+
+
+def test_the_shorter_twin_of_a_stage_is_the_longest_finished_run_of_it_with_fewer_iterations(tmp_path):
+    root = tmp_path / "sweeps"
+    mid, _high = planned_stages(_job_cfg(root))
+    asked = json.loads(json.dumps(mid.cfg))
+    asked["train"]["iterations"] = 10
+    assert stages.shorter_twin(root, asked, mid.overrides, {}) is None  # an empty store
+    _stored(root, mid, 3)
+    longest = _stored(root, mid, 6)
+    _stored(root, mid, 8, finished=False)  # cut: nothing to train on from
+    _stored(root, mid, 12)  # longer than asked
+    other_seed = planned_stages(_job_cfg(root, "seed=1"))[0]
+    _stored(root, other_seed, 7)  # another seed is another stage
+    assert stages.shorter_twin(root, asked, mid.overrides, {}) == longest
+    assert stages.shorter_twin(root, mid.cfg, mid.overrides, {}) is None  # nothing shorter than its 1 iteration
+
+
+def test_a_stage_built_on_another_has_a_shorter_twin_only_on_that_same_stage(tmp_path):
+    root = tmp_path / "sweeps"
+    mid, high = planned_stages(_job_cfg(root))
+    mid_run = _stored(root, mid, mid.iterations)
+    on_mid = json.loads(json.dumps(high.cfg))
+    on_mid["mid"], on_mid["train"]["iterations"] = str(mid_run), 1
+    key = stages.identity(on_mid, high.overrides, {"mid": mid.identity})
+    stages.write_identity(stages.stage_dir(root, key), on_mid, key)
+    twin = stages.stage_dir(root, key) / "high" / "cylinder" / "run"
+    twin.mkdir(parents=True)
+    (twin / "meta.json").write_text("{}")
+    (twin / "policy.pt").write_bytes(b"")
+    longer = json.loads(json.dumps(high.cfg))
+    longer["train"]["iterations"] = 5
+    assert stages.shorter_twin(root, longer, high.overrides, {"mid": mid.identity}) == twin
+    assert stages.shorter_twin(root, longer, high.overrides, {"mid": "another-mid-stage"}) is None
+
+
+@pytest.mark.slow
+def test_a_lengthened_budget_trains_the_shorter_stage_on_and_the_dry_run_says_so(cli, tmp_path):
+    # the smoke budget's mid level: 1 iteration of 4 envs x 8 steps; at 96 env-steps it is 3 iterations
+    root = tmp_path / "sweeps"
+    job = ["experiment=main", "method=sa", "task=cylinder"]
+    first = _sweep(cli, root, "sweep", *job)
+    assert first.returncode == 0, first.stdout + first.stderr
+    (short,) = [Path(json.loads(p.read_text())["stages"]["mid"]) for p in root.glob(f"*/*/{RESULT}")]
+    longer = [*job, "experiment.budgets.smoke.stages.mid.env_steps=96"]
+    plan = _sweep(cli, root, "sweep", "--dry-run", *longer)
+    assert plan.returncode == 0, plan.stderr
+    assert "train on 1/3" in plan.stdout and "2 to train" in plan.stdout
+    done = _sweep(cli, root, "sweep", *longer)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (result,) = [json.loads(p.read_text()) for p in root.glob(f"*/*mid.env_steps=96*/{RESULT}")]
+    run = Path(result["stages"]["mid"])
+    assert run != short and stages.identity_of(run) != stages.identity_of(short)
+    record = stages.read_identity(run.parents[2] / stages.IDENTITY_FILE)
+    assert record["lengthened_from"] == {"identity": stages.identity_of(short), "iterations": 1}
+    assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt", "model_1.pt", "model_2.pt"]
+    assert (run / "model_0.pt").stat().st_ino == (short / "model_0.pt").stat().st_ino  # trained on, not again
+    assert load_run_config(run).train.iterations == 3 and (run / "policy.pt").is_file()
+    (step,) = json.loads((run / "meta.json").read_text())["lengthened"]
+    assert (step["from_iterations"], step["to_iterations"]) == (1, 3)
+    assert load_run_config(short).train.iterations == 1  # the shorter stage is left as it was
+    assert sorted(p.name for p in short.glob("model_*.pt")) == ["model_0.pt"] and (short / "policy.pt").is_file()
+    # the lengthened stage draws its own curve, over all its checkpoints
+    assert [p["iteration"] for p in result["stage_curves"]["mid"]["points"]][-1] == 2
+
+
 @pytest.mark.slow
 def test_runs_trained_by_hand_as_a_sweeps_stages_are_adopted_and_reused(cli, tmp_path):
     # a probe trained with `mapush train` and the recipe's config is that stage: `mapush stages adopt` puts it in the
