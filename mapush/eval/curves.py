@@ -52,6 +52,13 @@ def evaluate_points(cfg: dict, checkpoints_: list[Path], episodes: int, seeds: l
     return points
 
 
-def learning_curve(run_dir: Path, cfg: dict, every_env_steps: float, episodes: int, seeds: list[int]) -> list[dict]:
-    """Evaluated success and completion time of the run's checkpoints (`curve_checkpoints`), under `cfg`."""
-    return evaluate_points(cfg, curve_checkpoints(run_dir, cfg, every_env_steps), episodes, seeds)
+def learning_curve(
+    run_dir: Path, cfg: dict, every_env_steps: float, episodes: int, seeds: list[int], drawn: list[dict] = ()
+) -> list[dict]:
+    """Evaluated success and completion time of the run's checkpoints (`curve_checkpoints`), under `cfg`. `drawn`:
+    points evaluated alike before (a run since trained on): those at a checkpoint the curve still takes are kept,
+    not evaluated again."""
+    kept = {point["iteration"]: point for point in drawn}
+    wanted = curve_checkpoints(run_dir, cfg, every_env_steps)
+    new = evaluate_points(cfg, [c for c in wanted if checkpoint_iteration(c) not in kept], episodes, seeds)
+    return sorted([kept[i] for i in map(checkpoint_iteration, wanted) if i in kept] + new, key=lambda p: p["iteration"])

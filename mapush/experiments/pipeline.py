@@ -187,16 +187,17 @@ def _drawn_alike(curve: dict | None, spec: dict) -> bool:
 
 
 def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
-    """The points of a stage's own learning curve drawn as `spec` says: read from its run dir when drawn alike
-    before, else drawn now and written there."""
+    """The points of a stage's own learning curve drawn as `spec` says, written into its run dir: those drawn alike
+    before read from there (all of them, or those of the shorter stage it was trained on from), the rest drawn."""
     path = run_dir / STAGE_CURVE
+    drawn = []
     with contextlib.suppress(OSError, ValueError):
-        drawn = json.loads(path.read_text())
-        if _drawn_alike(drawn, spec):
-            return drawn["points"]
+        earlier = json.loads(path.read_text())
+        drawn = earlier["points"] if _drawn_alike(earlier, spec) else []
     cfg = to_plain(load_run_config(run_dir))
-    points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"])
-    write_json(path, {**spec, "points": points})
+    points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"], drawn)
+    if points != drawn:
+        write_json(path, {**spec, "points": points})
     return points
 
 
@@ -260,13 +261,14 @@ def train_stage(
 
 
 def _train_on(twin: Path, stage_dir: Path, cfg: dict, threads: int, command: str) -> Path:
-    """The stage's run made by training its shorter `twin` on: a copy of the twin's run (checkpoints hard-linked;
-    its exported policy and own curve left behind, as they hold the twin's end) lengthened to the stage's iterations
-    (`lengthen_run`), then resumed. Its `stage.yaml` names the twin (`lengthened_from`)."""
+    """The stage's run made by training its shorter `twin` on: a copy of the twin's run (checkpoints hard-linked,
+    the points of its own curve kept for the checkpoints they share; its exported policy left behind, as it holds
+    the twin's end) lengthened to the stage's iterations (`lengthen_run`), then resumed. Its `stage.yaml` names the
+    twin (`lengthened_from`)."""
     target = Path(stage_dir).joinpath(*stages.store_parts(twin)[2:])  # level, subject, run: as the twin's
     if target.exists():
         shutil.rmtree(target)  # a copy cut before its meta.json made it a run
-    left_behind = shutil.ignore_patterns(META_FILE, POLICY_FILE, ONNX_FILE, STAGE_CURVE)
+    left_behind = shutil.ignore_patterns(META_FILE, POLICY_FILE, ONNX_FILE)
     shutil.copytree(twin, target, ignore=left_behind, copy_function=stages.link_weights)
     lengthen_run(target, int(cfg["train"]["iterations"]), command, meta_from=twin / META_FILE)
     origin = {"identity": stages.identity_of(twin), "iterations": int(load_run_config(twin).train.iterations)}
