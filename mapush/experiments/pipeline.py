@@ -109,7 +109,8 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
         overrides = [_resolve_stage_refs(o, runs) for o in stage.overrides] + [f"sim.nthread={threads}"]
         directory = stages.stage_dir(root, stage.identity)
         with stages.held(directory):
-            twin = None if find_runs(directory) else stages.shorter_twin(root, stage.cfg, stage.overrides, identities)
+            new = stages.trained_iterations(directory) == 0  # as the dry run judges it
+            twin = stages.shorter_twin(root, stage.cfg, stage.overrides, identities) if new else None
             runs[stage.name] = train_stage(directory, overrides, stage.iterations, stage.save_interval, threads, twin)
     evaluated = runs[evaluated_stage(cfg)]
     started = time.perf_counter()  # the evaluations and the learning curve: the job's cost beside its stages'
@@ -268,8 +269,7 @@ def _train_on(twin: Path, stage_dir: Path, cfg: dict, threads: int, command: str
     target = Path(stage_dir).joinpath(*stages.store_parts(twin)[2:])  # level, subject, run: as the twin's
     if target.exists():
         shutil.rmtree(target)  # a copy cut before its meta.json made it a run
-    left_behind = shutil.ignore_patterns(META_FILE, POLICY_FILE, ONNX_FILE)
-    shutil.copytree(twin, target, ignore=left_behind, copy_function=stages.link_weights)
+    stages.copy_run(twin, target, leave=(META_FILE, POLICY_FILE, ONNX_FILE))
     lengthen_run(target, int(cfg["train"]["iterations"]), command, meta_from=twin / META_FILE)
     origin = {"identity": stages.identity_of(twin), "iterations": int(load_run_config(twin).train.iterations)}
     stages.write_identity(stage_dir, cfg, Path(stage_dir).name, lengthened_from=origin)

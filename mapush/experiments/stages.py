@@ -234,12 +234,12 @@ def _parsed_record(path: str, _size: int, _mtime_ns: int) -> dict:
     return upgrade(read_yaml(path), path)
 
 
-def copy_run(run_dir: Path, target: Path) -> None:
-    """Copy run `run_dir` to `target` in a store (`link_weights`)."""
-    shutil.copytree(run_dir, target, copy_function=link_weights)
+def copy_run(run_dir: Path, target: Path, leave: tuple[str, ...] = ()) -> None:
+    """Copy run `run_dir` to `target` in a store (`_link_weights`), less the files named in `leave`."""
+    shutil.copytree(run_dir, target, ignore=shutil.ignore_patterns(*leave), copy_function=_link_weights)
 
 
-def link_weights(source: str, destination: str) -> None:
+def _link_weights(source: str, destination: str) -> None:
     """A `copytree` copy function for runs: weights hard-linked (written once), everything else copied (a resumed
     run appends to its logs)."""
     (os.link if source.endswith((".pt", ".onnx")) else shutil.copy2)(source, destination)
