@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 import signal
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from omegaconf import DictConfig
@@ -62,8 +63,9 @@ def resume(run_dir: Path, iterations: int | None, nthread: int | None = None, co
     `nthread` MuJoCo threads if given (a run cut on a machine of other cores; threads are not what it learns, and
     `Perf/threads` records each iteration's), else with those of its config.
 
-    More iterations than the run was made for lengthen it: recorded in the run first (`lengthen_run`, `command`
-    saying by what), and a finished run's exported policy removed, as it no longer holds the run's last iteration."""
+    More iterations than the run was made for lengthen it: recorded in the run before it trains on (`lengthen_run`,
+    `command` saying by what, once its config is built without refusal), and a finished run's exported policy
+    removed, as it no longer holds the run's last iteration."""
     cfg = load_run_config(run_dir)
     longer = iterations is not None and iterations > int(cfg.train.iterations)
     if iterations is not None:
@@ -81,13 +83,15 @@ def resume(run_dir: Path, iterations: int | None, nthread: int | None = None, co
     if done >= cfg.train.iterations:
         raise BadInput(f"run {str(run_dir)!r} already has {done} iterations; valid: train.iterations=N with N > {done}")
     print(run_dir, flush=True)
-    if longer:
+
+    def lengthen() -> None:
         for name in (POLICY_FILE, ONNX_FILE):
             (Path(run_dir) / name).unlink(missing_ok=True)
         lengthen_run(Path(run_dir), int(iterations), command or f"mapush train --resume (to {iterations} iterations)")
+
     remove_leftovers(Path(run_dir))  # temp files of the writers the cut killed
     _repair_cut_logs(Path(run_dir))
-    _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1])
+    _run(to_plain(cfg), Path(run_dir), checkpoint=found[-1], built=lengthen if longer else None)
     return Path(run_dir)
 
 
@@ -100,8 +104,11 @@ def export_finished(run_dir: Path) -> Path:
     return Path(run_dir)
 
 
-def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
-    """Train `run_dir` up to `train.iterations`, from scratch or from `checkpoint`, then export the policy."""
+def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None, built: Callable[[], None] | None = None) -> None:
+    """Train `run_dir` up to `train.iterations`, from scratch or from `checkpoint`, then export the policy.
+
+    `built` runs once the env and learner are built and the checkpoint loaded, when nothing in the config can be
+    refused any more (a lengthened run is recorded then, so a refused resume leaves the run as it was)."""
     exit_on_sigterm()
     # SIGINT cuts a run as Ctrl-C does (saving its last iteration) also where the shell started it in the
     # background, which leaves SIGINT ignored
@@ -114,6 +121,8 @@ def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None) -> None:
         runner.current_learning_iteration = done  # rsl-rl would repeat the loaded iteration
     elif cfg["train"]["init_from"]:  # a new run that starts from another run's networks
         load_into(runner, cfg, Path(cfg["train"]["init_from"]), "the config", weights=True)
+    if built is not None:
+        built()
     interval = int(cfg["log"]["episode_interval"])
     recorder = None
     if interval > 0:
