@@ -74,9 +74,16 @@ def run_learning_bench(cfg: DictConfig, overrides: list[str], minutes: float, ru
     learn = cfg.bench.learn
     run_dir, launched = train_for(overrides, minutes, int(learn.save_interval), run_root)
     run_cfg = to_plain(load_run_config(run_dir))
+    marks = checkpoint_marks(run_dir, launched, float(learn.eval_every_min))
+    if not marks:
+        raise BadInput(
+            f"--minutes {minutes:g}: no checkpoint was written in that time (start-up and "
+            f"bench.learn.save_interval={int(learn.save_interval)} iterations took longer); valid: more minutes or a "
+            "smaller save_interval"
+        )
     points = []
     episodes, seeds = int(run_cfg["eval"]["episodes"]), list(run_cfg["eval"]["seeds"])
-    for at_min, checkpoint in checkpoint_marks(run_dir, launched, float(learn.eval_every_min)):
+    for at_min, checkpoint in marks:
         point = {"minutes": round(at_min, 3), **evaluate_points(run_cfg, [checkpoint], episodes, seeds)[0]}
         points.append(point)
         print(

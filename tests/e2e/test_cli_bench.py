@@ -90,14 +90,22 @@ def test_each_mark_takes_the_last_checkpoint_written_before_it(tmp_path):
 @pytest.mark.slow
 def test_bench_learn_trains_evaluates_and_draws_its_curve(cli, tmp_path):
     out = tmp_path / "learn" / "smoke.json"
-    proc = cli("bench", "--learn", "--minutes", "0.2", "debug=smoke", "bench.learn.eval_every_min=0.05", "--json", out)
+    # A checkpoint every iteration and a whole minute: start-up on a loaded 2-core machine took more than 12 s.
+    learn = ["bench.learn.eval_every_min=0.5", "bench.learn.save_interval=1"]
+    proc = cli("bench", "--learn", "--minutes", "1", "debug=smoke", *learn, "--json", out)
     assert proc.returncode == 0, proc.stderr
     result = json.loads(out.read_text())
     assert out.with_suffix(".png").is_file()
     assert result["task"] == "cuboid" and set(result["reached"]) == {"0.6", "0.7", "0.8"}
     minutes = [p["minutes"] for p in result["points"]]
-    assert minutes == sorted(minutes) and 0 < minutes[-1] <= 0.2 + 0.05
+    assert minutes == sorted(minutes) and 0 < minutes[-1] <= 1 + 0.05
     assert (tmp_path / result["run_dir"]).is_dir()
+
+
+@pytest.mark.slow
+def test_bench_learn_says_so_when_no_checkpoint_came_in_time(cli):
+    proc = cli("bench", "--learn", "--minutes", "0.01", "debug=smoke")  # 0.6 s: less than importing torch
+    assert proc.returncode == 2 and "--minutes 0.01: no checkpoint was written in that time" in proc.stderr
 
 
 @pytest.mark.slow
