@@ -151,11 +151,12 @@ def path_following(env, point: str = "subgoal") -> torch.Tensor:
     return _shared(env, 1.0 / (1.0 + distance_to_path(env.path, xy)))
 
 
-def path_progress(env) -> torch.Tensor:
-    """The drop, over this decision, of the object's remaining path length (m): from its projection onto the
-    reference path to the path's end. Potential-based (the potential is minus the remaining length), so it adds
-    no optimum of its own; a progress signal for policies that have no subgoal (H+L FT)."""
-    return _shared(env, env.path_remaining_at_decision - remaining_length(env.path, env.state.object_xy))
+def path_progress(env, alpha: float) -> torch.Tensor:
+    """alpha * (L_{t-1} - L_t) - L_t, with L the object's remaining path length in m (from its projection onto the
+    reference path to the path's end) at the decision's start and now: `subgoal_progress`'s form along the path,
+    for policies that have no subgoal (H+L FT); shared."""
+    remaining = remaining_length(env.path, env.state.object_xy)
+    return _shared(env, alpha * (env.path_remaining_at_decision - remaining) - remaining)
 
 
 def obstacle_proximity(env) -> torch.Tensor:

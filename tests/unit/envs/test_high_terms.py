@@ -96,12 +96,13 @@ def test_remaining_path_length_agrees_with_shapely():
         assert got[k].item() == pytest.approx(expected, abs=1e-3)
 
 
-def test_path_progress_is_the_drop_of_the_remaining_length_over_the_decision():
+def test_path_progress_pays_alpha_times_the_drop_of_the_remaining_length_less_what_remains():
     path = torch.tensor([[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]]]).repeat(3, 1, 1)  # 8 m
     start = torch.tensor([7.0, 4.0, 4.0])  # remaining at the decision's start: 7, 4 and 4 m
-    now = torch.tensor([[2.0, 0.5], [4.0, 1.0], [3.9, -0.2]])  # 1 m further, 1 m further, 0.1 m back (off the path)
+    now = torch.tensor([[2.0, 0.5], [4.0, 1.0], [3.9, -0.2]])  # 6, 3 and 4.1 m remain (the last off the path, back)
     env = stand_in_env(object_xy=now, path=path, path_remaining_at_decision=start, policy_agents=1)
-    assert terms.path_progress(env)[:, 0].tolist() == pytest.approx([1.0, 1.0, -0.1], abs=1e-5)
+    # 8 x 1 - 6, 8 x 1 - 3, 8 x (-0.1) - 4.1
+    assert terms.path_progress(env, alpha=8.0)[:, 0].tolist() == pytest.approx([2.0, 5.0, -4.9], abs=1e-5)
 
 
 def test_obstacle_proximity_is_one_over_one_plus_the_nearest_gap():
