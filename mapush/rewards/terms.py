@@ -24,10 +24,14 @@ def subgoal_reached(env) -> torch.Tensor:
     return _shared(env, env.success)
 
 
+def _approaching(before: torch.Tensor, now: torch.Tensor, alpha: float) -> torch.Tensor:
+    """The paper's approaching reward, alpha * (d_{t-1} - d_t) - d_t: progress pays, the distance left costs."""
+    return alpha * (before - now) - now
+
+
 def subgoal_progress(env, alpha: float) -> torch.Tensor:
-    """alpha * (d_{t-1} - d_t) - d_t, with d the object-subgoal distance in m; shared (paper: alpha = 200)."""
-    d = env.subgoal_distance
-    return _shared(env, alpha * (env.prev_subgoal_distance - d) - d)
+    """The approaching reward on d, the object-subgoal distance in m; shared (paper: alpha = 200)."""
+    return _shared(env, _approaching(env.prev_subgoal_distance, env.subgoal_distance, alpha))
 
 
 def exception(env) -> torch.Tensor:
@@ -156,7 +160,7 @@ def path_progress(env, alpha: float) -> torch.Tensor:
     reference path to the path's end) at the decision's start and now: `subgoal_progress`'s form along the path,
     for policies that have no subgoal (H+L FT); shared."""
     remaining = remaining_length(env.path, env.state.object_xy)
-    return _shared(env, alpha * (env.path_remaining_at_decision - remaining) - remaining)
+    return _shared(env, _approaching(env.path_remaining_at_decision, remaining, alpha))
 
 
 def obstacle_proximity(env) -> torch.Tensor:
