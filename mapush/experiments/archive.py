@@ -36,9 +36,9 @@ from mapush.experiments.results import (
     recorded_stage_seconds,
     write_result,
 )
-from mapush.experiments.stage_plan import PlannedStage, planned_stages
+from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, planned_stages, stage_curve_specs
 from mapush.experiments.stages import IDENTITY_FILE, STORE, identity_of, stage_dir, stands_for, store_root
-from mapush.experiments.staleness import result_changes
+from mapush.experiments.staleness import drawn_alike, result_changes, same_stages, still_valid
 
 ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""
@@ -123,6 +123,36 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     if not path.is_file():
         return None
     return None if result_changes(read_result(path), cfg, planned, archive) else path
+
+
+def twin_job(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> tuple[JobResult, dict, dict | None] | None:
+    """A finished job of another sweep, under the sweep root or in the archive, that made what this job would make:
+    its stages the ones this job plans (the same identities), and every evaluation this job asks for made alike
+    (the same overrides, locomotion policy, episodes and seeds), with its learning curve where the budget asks for
+    one. Returns (that result, the evaluations, the curve) as `still_valid` keeps them for this job, or None. Such
+    a job is done already: the scalability study's 1- and 3-robot jobs are the main table's SA and Ours jobs of
+    the cylinder. The first such job found in sweep order counts."""
+    roots = [Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])]
+    own = (Path(job_dir).parent.name, Path(job_dir).name)
+    budget = budget_of(cfg)
+    asked = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
+    alike = {"episodes": int(budget.eval.episodes), "seeds": [int(s) for s in budget.eval.seeds]}
+    wanted = {stage.name for stage in planned}
+    for result in load_results(roots):
+        root = Path(result.job_dir).parent.parent
+        if job_key(Path(result.job_dir) / RESULT) == own or set(result.stages) != wanted:
+            continue
+        if same_stages(result, cfg, planned, root) != wanted:
+            continue
+        evals, curve = still_valid(result, cfg, planned, root)
+        if sorted(evals) != asked or any({k: e.get(k) for k in alike} != alike for e in evals.values()):
+            continue
+        if (curve is None) == bool(budget.get("curve")):
+            continue
+        drawn = result.stage_curves or {}
+        if all(drawn_alike(drawn.get(name), spec) for name, spec in stage_curve_specs(cfg, wanted).items()):
+            return result, evals, curve
+    return None
 
 
 def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> None:

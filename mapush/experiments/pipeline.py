@@ -31,7 +31,7 @@ from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
-from mapush.experiments.archive import archived_result
+from mapush.experiments.archive import archived_result, twin_job
 from mapush.experiments.results import (
     RESULT,
     SUPERSEDED,
@@ -47,10 +47,11 @@ from mapush.experiments.stage_plan import (
     eval_stage,
     evaluated_stage,
     planned_stages,
+    stage_curve_specs,
     variant,
 )
 from mapush.experiments.stages import STAGE_REF
-from mapush.experiments.staleness import result_changes, still_valid
+from mapush.experiments.staleness import drawn_alike, result_changes, still_valid
 from mapush.rundir import META_FILE, ONNX_FILE, PACKAGE, POLICY_FILE, checkpoints, find_runs, is_complete
 
 LOADED_AT = time.time()
@@ -86,6 +87,10 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
     if archived is not None:  # finished on another machine
         print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
         return read_result(archived)
+    twin = None if done.is_file() else twin_job(cfg, job_dir, planned)
+    if twin is not None:  # another sweep's job made all this one would
+        print(f"mapush: {job_dir.name}: made already as {twin[0].job_dir}; its result taken, nothing trained")
+        return write_result(done, _taken(cfg, job_dir, *twin))
     if done.is_file():
         result = read_result(done)
         changed = result_changes(result, cfg, planned)
@@ -127,17 +132,10 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
         evals[name]["overrides"] = list(overrides)
-    result = JobResult(
-        experiment=cfg.experiment.name,
-        table=cfg.experiment.table,
-        budget=cfg.budget,
-        variant=variant(cfg),
-        overrides=list(cfg.overrides),
-        method=cfg.method.name,
-        method_label=cfg.method.label,
-        task=cfg.task.name,
+    result = _job_result(
+        cfg,
+        job_dir,
         num_agents=int(load_run_config(evaluated).task.num_agents),
-        seed=int(cfg.seed),
         stages={name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
         stage_core_s=recorded_stage_seconds(runs),
         evals=evals,
@@ -146,11 +144,48 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
         eval_wall_s=round(time.perf_counter() - started, 1),  # this run's; `supersedes` names the earlier's
         threads=threads,
         machine_cores=os.cpu_count(),
-        finished=datetime.datetime.now().isoformat(timespec="seconds"),
         supersedes=None if earlier is None else SUPERSEDED,  # its evaluations are kept where they hold
-        job_dir=str(job_dir),
     )
     return write_result(done, result)
+
+
+def _job_result(cfg: DictConfig, job_dir: Path, **made) -> JobResult:
+    """The result of the job `cfg` composes, in `job_dir`, with what it `made` (stages, evaluations, curves, cost)."""
+    return JobResult(
+        experiment=cfg.experiment.name,
+        table=cfg.experiment.table,
+        budget=cfg.budget,
+        variant=variant(cfg),
+        overrides=list(cfg.overrides),
+        method=cfg.method.name,
+        method_label=cfg.method.label,
+        task=cfg.task.name,
+        seed=int(cfg.seed),
+        finished=datetime.datetime.now().isoformat(timespec="seconds"),
+        job_dir=str(job_dir),
+        **made,
+    )
+
+
+def _taken(cfg: DictConfig, job_dir: Path, twin: JobResult, evals: dict, curve: dict | None) -> JobResult:
+    """This job's result from another sweep's job that made it (`archive.twin_job`): its stages and their training
+    time, the evaluations and curves this job asks for; no evaluation time, as this job evaluated nothing (the
+    other job's result counts it)."""
+    runs = {name: Path(run) for name, run in twin.stages.items()}
+    return _job_result(
+        cfg,
+        job_dir,
+        num_agents=twin.num_agents,
+        stages=dict(twin.stages),
+        stage_core_s=dict(twin.stage_core_s),
+        evals=evals,
+        curve=curve,
+        stage_curves=stage_curves(cfg, runs, twin.stage_curves),
+        eval_wall_s=0.0,
+        threads=twin.threads,
+        machine_cores=twin.machine_cores,
+        taken_from=twin.job_dir,
+    )
 
 
 def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, dict]:
@@ -163,28 +198,15 @@ def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = Non
     uses the stage. A stage whose run is not here keeps the curve `have` holds for it (an earlier result's), if
     that was drawn alike; otherwise it has none.
     """
-    budget = budget_of(cfg)
-    curve = budget.get("curve")
-    asked = curve.get("stages", {}) if curve else {}
     rule = OmegaConf.to_container(cfg.experiment.budget_rule)
     drawn = {}
-    for name in (n for n in asked if n in runs and n != evaluated_stage(cfg)):
-        spec = {
-            "every_env_steps": float(curve.every_env_steps),
-            "episodes": int((asked[name] or {}).get("episodes", budget.eval.episodes)),
-            "seeds": [int(s) for s in budget.eval.seeds],
-        }
+    for name, spec in stage_curve_specs(cfg, set(runs)).items():
         earlier = (have or {}).get(name)
         if Path(runs[name]).is_dir():
             drawn[name] = {**spec, "rule": rule, "points": _stage_curve_points(Path(runs[name]), spec)}
-        elif _drawn_alike(earlier, spec):
+        elif drawn_alike(earlier, spec):
             drawn[name] = {**earlier, "rule": rule}  # judged by today's rule
     return drawn
-
-
-def _drawn_alike(curve: dict | None, spec: dict) -> bool:
-    """Whether a recorded stage curve was drawn at the marks, episodes and seeds `spec` asks for."""
-    return bool(curve) and {key: curve.get(key) for key in spec} == spec
 
 
 def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
@@ -194,7 +216,7 @@ def _stage_curve_points(run_dir: Path, spec: dict) -> list[dict]:
     drawn = []
     with contextlib.suppress(OSError, ValueError):
         earlier = json.loads(path.read_text())
-        drawn = earlier["points"] if _drawn_alike(earlier, spec) else []
+        drawn = earlier["points"] if drawn_alike(earlier, spec) else []
     cfg = to_plain(load_run_config(run_dir))
     points = learning_curve(run_dir, cfg, spec["every_env_steps"], spec["episodes"], spec["seeds"], drawn)
     if points != drawn:

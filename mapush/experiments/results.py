@@ -93,6 +93,7 @@ class JobResult:
     finished: str = ""  # ISO time
     supersedes: str | None = None  # the earlier result this one replaced (`SUPERSEDED`), beside it
     archived_from: str | None = None  # the job dir `mapush archive` copied it from
+    taken_from: str | None = None  # another sweep's job of the same stages and evaluations, this one's source
     # not in the file: where it was read, and what `mapush tables` found of it against its experiment now
     job_dir: str = field(default="", metadata={"in_file": False})
     made_otherwise: Change | None = field(default=None, metadata={"in_file": False})
@@ -108,7 +109,7 @@ class JobResult:
 
     def record(self) -> dict:
         """The file's content: its fields in order, the optional ones only when set."""
-        optional = {"stage_curves", "eval_wall_s", "supersedes", "archived_from"}
+        optional = {"stage_curves", "eval_wall_s", "supersedes", "archived_from", "taken_from"}
         return {
             f.name: getattr(self, f.name)
             for f in dataclasses.fields(self)

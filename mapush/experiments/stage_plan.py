@@ -77,6 +77,23 @@ def budget_of(cfg: DictConfig) -> DictConfig:
     return budgets[cfg.budget]
 
 
+def stage_curve_specs(cfg: DictConfig, trained: list[str] | set[str]) -> dict[str, dict]:
+    """How the budget's `curve.stages` asks each stage among `trained`, other than the evaluated one, to have its
+    own learning curve drawn: {stage: {every_env_steps, episodes, seeds}} (episodes by default the budget's)."""
+    budget = budget_of(cfg)
+    curve = budget.get("curve")
+    asked = curve.get("stages", {}) if curve else {}
+    return {
+        name: {
+            "every_env_steps": float(curve.every_env_steps),
+            "episodes": int((asked[name] or {}).get("episodes", budget.eval.episodes)),
+            "seeds": [int(s) for s in budget.eval.seeds],
+        }
+        for name in asked
+        if name in trained and name != evaluated_stage(cfg)
+    }
+
+
 def stage_budget(cfg: DictConfig, name: str) -> DictConfig:
     """The budget's `num_envs` and `env_steps` for stage `name` of the job's task: the stage's entry, with the
     task's own values from its `by_task` where the task has some (a stage that learns more slowly on one object).

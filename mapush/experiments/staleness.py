@@ -15,12 +15,14 @@ from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, eval
 from mapush.lowlevel import backend_of
 
 
-def still_valid(result: JobResult, cfg: DictConfig, planned: list[PlannedStage]) -> tuple[dict, dict | None]:
+def still_valid(
+    result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None
+) -> tuple[dict, dict | None]:
     """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
     a stage with the same identity (or one it was adopted from), with the same overrides and locomotion policy.
     An evaluation that recorded no overrides (made before they were recorded) is taken as made with today's, as
-    `result_changes` takes it."""
-    same = _same_stages(result, cfg, planned)
+    `result_changes` takes it. `root` holds the stage records, by default the sweep root (`result_changes`)."""
+    same = same_stages(result, cfg, planned, root)
     kept = {}
     for name, spec in cfg.experiment.evals.items():
         record, overrides = result.evals.get(name), eval_overrides(cfg, name)
@@ -33,6 +35,12 @@ def still_valid(result: JobResult, cfg: DictConfig, planned: list[PlannedStage])
     if not holds or curve.get("every_env_steps") != spec.every_env_steps:
         return kept, None
     return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
+
+
+def drawn_alike(curve: dict | None, spec: dict) -> bool:
+    """Whether a recorded stage curve was drawn at the marks, episodes and seeds `spec` asks for
+    (`stage_plan.stage_curve_specs`)."""
+    return bool(curve) and {key: curve.get(key) for key in spec} == spec
 
 
 def _walker_changed(record: dict, result: JobResult, cfg: DictConfig, name: str, planned: list[PlannedStage]) -> bool:
@@ -53,7 +61,7 @@ def _walker_changed(record: dict, result: JobResult, cfg: DictConfig, name: str,
     return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
 
 
-def _same_stages(result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
+def same_stages(result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
     """Names of the planned stages that `result` was made with: the same identity, or one the planned stage was
     adopted from (`stages.stands_for`, read from the store under `root`, by default the sweep root)."""
     made = {name: stages.identity_of(Path(path)) for name, path in result.stages.items()}
@@ -81,7 +89,7 @@ def result_changes(
     """
     made = {name: stages.identity_of(Path(path)) for name, path in result.stages.items()}
     wanted = {stage.name: stage.identity for stage in planned}
-    same = _same_stages(result, cfg, planned, root)
+    same = same_stages(result, cfg, planned, root)
     changed = [name for name in {**wanted, **made} if name not in same]  # the plan's order, then stages it lacks
     if changed:
         return _about_stages({name: (made.get(name), wanted.get(name)) for name in changed})

@@ -22,7 +22,7 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.config import CONF_DIR, compose_config, group_file, group_options, load_run_config, overrides_name, to_plain
 from mapush.errors import BadInput, first_line
 from mapush.experiments import stages
-from mapush.experiments.archive import archived_result, load_results
+from mapush.experiments.archive import archived_result, load_results, twin_job
 from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.stages import STAGE_REF
@@ -206,7 +206,8 @@ def _check_jobs(overrides: list[str]) -> None:
 def dry_run(overrides: list[str]) -> list[dict]:
     """What `run_sweep(overrides)` would train and reuse, job by job, training nothing; printed and returned.
 
-    Finished jobs are left out (those whose experiment changed since are listed; see `rerun_changed`). Each row of
+    Finished jobs are left out (those whose experiment changed since are listed; see `rerun_changed`), and so are
+    jobs another sweep's job made already (`archive.twin_job`), whose results the sweep takes. Each row of
     the others: job, stage, identity, what happens (`train`, `resume from N/M`, `reuse` a finished stage, or `share`
     a stage an earlier job of this sweep trains, or `train on N/M` a finished stage that is this one with a shorter
     budget, `stages.shorter_twin`) and the stage's env-steps.
@@ -215,7 +216,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
     combos = job_combos(full)
     hydra_cfg = compose_config(combos[0], config_name="sweep", hydra=True).hydra
     unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
-    rows, seen, changed, finished = [], set(), [], 0
+    rows, seen, changed, finished, taken = [], set(), [], 0, 0
     roots = _roots(compose_config(combos[0], config_name="sweep"))
     rates = stages.cost_per_env_step(load_results(roots), roots)
     for combo in combos:
@@ -225,6 +226,9 @@ def dry_run(overrides: list[str]) -> list[dict]:
         result = Path(hydra_cfg.sweep.dir) / job / RESULT
         if not result.is_file() and archived_result(cfg, result.parent, planned) is not None:
             finished += 1  # finished on another machine, and archived (`mapush archive`)
+            continue
+        if not result.is_file() and twin_job(cfg, result.parent, planned) is not None:
+            finished, taken = finished + 1, taken + 1  # made already by another sweep's job
             continue
         if result.is_file():
             why = result_changes(read_result(result), cfg, planned)
@@ -250,7 +254,8 @@ def dry_run(overrides: list[str]) -> list[dict]:
             rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action,
                          "env_steps": stage.env_steps, "core_s": None if rate is None else rate * left})  # fmt: skip
     to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith(("resume", "train on"))]
-    print(f"sweep {hydra_cfg.sweep.dir}: {len(combos)} jobs, {finished} finished; {len(rows)} stages to run; "
+    made = f" ({taken} made already by other sweeps' jobs, their results to be taken)" if taken else ""
+    print(f"sweep {hydra_cfg.sweep.dir}: {len(combos)} jobs, {finished} finished{made}; {len(rows)} stages to run; "
           f"{len(to_train)} to train ({sum(r['env_steps'] for r in to_train) / 1e6:.1f}M env-steps), "
           f"{sum(r['action'] == 'reuse' for r in rows)} finished to reuse, "
           f"{sum(r['action'] == 'share' for r in rows)} shared between jobs")  # fmt: skip

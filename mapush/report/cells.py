@@ -32,6 +32,20 @@ def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cel
     return cell
 
 
+def final_cell(results: list[JobResult], stage: str, scale: float, **match) -> Cell:
+    """The cell of the last point of each matching result's own curve of `stage` (`stage_curves`: e.g. the mid
+    level alone under a high level, at the end of its budget), for its success rate."""
+    cell = Cell()
+    for r in matching(results, **match):
+        points = ((r.stage_curves or {}).get(stage) or {}).get("points")
+        if points:
+            cell.values.append(scale * points[-1]["success_rate"])
+            cell.sources.append(r.job_dir)
+            change = r.made_otherwise
+            cell.otherwise += change is not None and change.concerns_stage(r, stage)
+    return cell
+
+
 def reach_cell(results: list[JobResult]) -> Cell:
     """Env-steps (M) to the curve's `reach` success rate, over the seeds of `results`."""
     values, sources, unreached = plots.reach_values(results)

@@ -12,7 +12,8 @@ before the pipeline recorded it get it from file times (the evaluated stage's ex
 `finished`), but only the first job to evaluate a stage: a later one that reused it left no trace of its own time.
 A job that ran again after its experiment changed (`rerun_changed`) counts its earlier result too when only its
 evaluations changed; an earlier result of other stages (another recipe) is reported apart: a table's cost is what
-its results cost.
+its results cost. A job whose result was taken from another table's job that made it (`taken_from`: the
+scalability study's 1- and 3-robot jobs are the main table's) evaluated nothing; that job counts the evaluation.
 """
 
 from __future__ import annotations
@@ -121,6 +122,7 @@ def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: 
         "training_core_h": round(training / 3600, 2),
         "evaluation_core_h": round(evaluation / 3600, 2),
         "evaluation_jobs_from_file_times": from_file_times,
+        "jobs_taken": sum(1 for r in results[:jobs_now] if r.taken_from),
         "seconds": training + evaluation,
     }
 
@@ -190,9 +192,10 @@ def _superseded(result: JobResult) -> JobResult | None:
 
 
 def _first_to_evaluate(results: list[JobResult]) -> dict[Path, JobResult]:
-    """Per evaluated stage, the earliest-finished job that evaluates it (the one that may have trained it)."""
+    """Per evaluated stage, the earliest-finished job that evaluates it (the one that may have trained it); a job
+    taken from another (`taken_from`) evaluated nothing."""
     first: dict[Path, JobResult] = {}
-    for r in sorted(results, key=lambda r: r.finished):
+    for r in sorted((r for r in results if not r.taken_from), key=lambda r: r.finished):
         first.setdefault(r.stage_runs()[-1].resolve(), r)
     return first
 
@@ -206,6 +209,8 @@ def cost_line(cost: dict) -> str:
         notes.append(f"{cost['evaluation_jobs_from_file_times']} of the jobs' evaluation times from file times")
     if cost["jobs_without_evaluation_time"]:
         notes.append(f"{cost['jobs_without_evaluation_time']} jobs without a recorded evaluation time left out")
+    if cost.get("jobs_taken"):
+        notes.append(f"{cost['jobs_taken']} jobs' results taken from other tables' jobs, whose evaluation they count")
     if cost.get("evaluated_again"):
         notes.append(f"{cost['evaluated_again']} jobs evaluated again after their experiment changed: both counted")
     if cost.get("superseded"):

@@ -80,6 +80,7 @@ def test_cost_counts_shared_stages_and_repeated_iterations_once(two_jobs):
         "training_core_h": 3.5,
         "evaluation_core_h": 1.5,
         "evaluation_jobs_from_file_times": 1,
+        "jobs_taken": 0,
         "cores": 2,
         "machine_h": 2.5,
         "superseded": 0,
@@ -159,6 +160,16 @@ def test_a_table_that_shares_stages_with_another_is_charged_apart_what_it_adds_a
         "2.2 hours of a 2-core machine with every core busy; run after the main table's jobs (1 stages shared), "
         "it adds 1.5 hours"
     )
+
+
+def test_a_job_taken_from_another_tables_job_adds_no_evaluation_and_says_whose_it_is(two_jobs):
+    main = [{**r, "table": "main"} for r in two_jobs]  # 2.5 h of 2 cores, as above
+    taken = {"stages": dict(two_jobs[1]["stages"]), "eval_wall_s": 0.0, "threads": 2, "table": "scale"}
+    taken["taken_from"] = "results/jobs/main_quick/method=sa,seed=0,task=cylinder"
+    cost = measured_cost(as_results([taken]), cores=2)
+    assert (cost["training_core_h"], cost["evaluation_core_h"], cost["jobs_taken"]) == (3.5, 0.0, 1)
+    assert "1 jobs' results taken from other tables' jobs, whose evaluation they count" in cost_line(cost)
+    assert cost_after(as_results([taken]), as_results(main), cores=2)["machine_h"] == 0.0  # nothing added
 
 
 def test_stage_runs_are_found_under_the_sweep_root_or_counted_as_unreadable(two_jobs, tmp_path):

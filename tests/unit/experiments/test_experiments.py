@@ -234,6 +234,7 @@ def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_tr
     from mapush.experiments.stage_plan import eval_stage
 
     cfg = compose_config(["experiment=scale", "method=ours", "task=cylinder", "agents=3"], config_name="sweep")
+    OmegaConf.update(cfg, "experiment.evals.mid", {"stage": "mid", "overrides": []}, force_add=True)
     assert [eval_stage(cfg, spec) for spec in cfg.experiment.evals.values()] == ["high", "mid"]
     ablation = compose_config(["experiment=ocb_ablation", "method=ours", "task=ocb_cuboid"], config_name="sweep")
     OmegaConf.update(ablation, "experiment.evals.bad", {"stage": "high", "overrides": []}, force_add=True)
@@ -243,7 +244,10 @@ def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_tr
 
 
 # ---------------------------------------------------------------------------------------------------------------
-def _fixture_result(root: Path, table: str, method: str, task: str, seed: int, evals: dict, agents: int = 2) -> None:
+def _fixture_result(
+    root: Path, table: str, method: str, task: str, seed: int, evals: dict, agents: int = 2, mid: float | None = None
+) -> None:
+    """A finished job's result; `mid`: the success rate at the last point of its mid level's own curve."""
     job = root / f"{table}_quick" / f"method={method},seed={seed},task={task},agents={agents}"
     job.mkdir(parents=True)
     result = {
@@ -258,6 +262,10 @@ def _fixture_result(root: Path, table: str, method: str, task: str, seed: int, e
             for name, (sr, ct, cts) in evals.items()
         },
     }
+    if mid is not None:
+        points = [{"iteration": k, "env_steps": 1e6 * (k + 1), "success_rate": sr} for k, sr in enumerate((0.1, mid))]
+        rule = {"tail": 0.2, "max_gain": 0.03}
+        result["stage_curves"] = {"mid": {"every_env_steps": 1e6, "rule": rule, "points": points}}
     (job / RESULT).write_text(json.dumps(result))
 
 
@@ -272,10 +280,10 @@ def fixture_tables(tmp_path):
     for seed, (sr20, s20, sr40, s40) in enumerate([(0.5, 15.0, 0.7, 22.0), (0.6, 14.0, 0.8, 20.0)]):
         evals = {"t20": (sr20, s20 / 20, s20), "t40": (sr40, s40 / 40, s40)}
         _fixture_result(runs, "ocb_ablation", "ours", "ocb_cuboid", seed, evals)
-    # scale: 1 and 3 robots; the 3-robot jobs' mid levels evaluated alone too
+    # scale: 1 and 3 robots; the 3-robot jobs with their mid levels' own curves
     _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.2, 0.9, 0.0)}, agents=1)
-    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0), "mid": (0.7, 0.6, 12.0)}, agents=3)
-    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0), "mid": (0.74, 0.5, 10.0)}, agents=3)
+    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0)}, agents=3, mid=0.7)
+    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0)}, agents=3, mid=0.74)
     return runs
 
 
@@ -336,7 +344,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     ) in scale
     assert "- 2 robots: no finished job" in scale
     assert "| 6 | \u2014 | \u2014 | \u2014 |" in scale and "- 6 robots: no finished job" in scale  # planned, not run
-    assert "- 1 robot / mid level: no evaluation of the mid level alone" in scale
+    assert "- 1 robot / mid level: no curve of the mid level alone" in scale
     assert (out / "scale_quick.png").stat().st_size > 1000
 
 

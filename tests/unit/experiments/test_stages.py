@@ -198,18 +198,32 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     first = _sweep(cli, root, "sweep", "experiment=main", "method=sa", "task=cylinder")
     assert first.returncode == 0, first.stdout + first.stderr
     before = snapshot(root)
+    # the study's 1-robot job is that job: the same stages and evaluation (its smoke budget draws no curve)
     plan = _sweep(cli, root, "scale", "--agents", "1", "--dry-run")
     assert plan.returncode == 0, plan.stderr
-    assert "0 to train" in plan.stdout and plan.stdout.count("  reuse  ") == 2
+    assert "1 jobs, 1 finished (1 made already by other sweeps' jobs" in plan.stdout and "0 to train" in plan.stdout
     assert snapshot(root) == before
+    taken = _sweep(cli, root, "scale", "--agents", "1")
+    assert taken.returncode == 0, taken.stdout + taken.stderr
+    assert "its result taken, nothing trained" in taken.stdout
+    (made,) = root.glob(f"main_*/*/{RESULT}")
+    (twin,) = [json.loads(p.read_text()) for p in root.glob(f"scale_*/*/{RESULT}")]
+    main_result = json.loads(made.read_text())
+    assert twin["taken_from"] == str(made.parent) and twin["experiment"] == "scale"
+    assert twin["stages"] == main_result["stages"] and twin["evals"] == {"main": main_result["evals"]["main"]}
 
-    second = _sweep(cli, root, "scale", "--agents", "1")
+    # an evaluation the main job lacks (the mid level alone): the stages are reused, that evaluation made
+    extra = "+experiment.evals.mid={stage:mid,overrides:[]}"
+    plan = _sweep(cli, root, "scale", "--agents", "1", "--dry-run", extra)
+    assert "0 to train" in plan.stdout and plan.stdout.count("  reuse  ") == 2
+    second = _sweep(cli, root, "scale", "--agents", "1", extra)
     assert second.returncode == 0, second.stdout + second.stderr
     results = [json.loads(p.read_text()) for p in sorted(root.glob(f"*/*/{RESULT}"))]
-    assert sorted(r["experiment"] for r in results) == ["main", "scale"]
-    assert results[0]["stages"] == results[1]["stages"]  # both cells name the same run dirs
-    mid_eval = Path(results[1]["evals"]["mid"]["file"])  # the study also evaluates the mid level alone
-    assert mid_eval.parent == Path(results[1]["stages"]["mid"]) and mid_eval.name == "eval_mid.json"
+    assert sorted(r["experiment"] for r in results) == ["main", "scale", "scale"]
+    assert all(r["stages"] == main_result["stages"] for r in results)  # every cell names the same run dirs
+    (alone,) = [r for r in results if "mid" in r["evals"]]
+    mid_eval = Path(alone["evals"]["mid"]["file"])
+    assert mid_eval.parent == Path(alone["stages"]["mid"]) and mid_eval.name == "eval_mid.json"
     assert len(find_runs(root / "stages")) == 2  # one mid and one high run in all
     for run in map(Path, results[0]["stages"].values()):
         assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]  # trained once, not resumed
@@ -431,6 +445,46 @@ def test_a_job_archived_on_another_machine_is_finished_unless_the_plan_changed(c
     # a changed budget is another high-level stage: the archived result does not stand for it
     longer = [*args, f"archive={archive}", "experiment.budgets.smoke.stages.high.env_steps=1600"]
     assert "1 jobs, 0 finished; 2 stages to run; 2 to train" in cli(*longer).stdout
+
+
+def test_a_job_another_sweep_made_already_is_its_twin_until_an_evaluation_or_curve_differs(tmp_path):
+    # the scalability study's 1-robot job is the main table's SA job of the cylinder: the same stages, evaluation
+    # and curves at the quick budget, though another method name and experiment
+    root, store = tmp_path / "sweeps", tmp_path / "archive"
+    main = _job_cfg(root, "budget=quick", "overrides=[]", f"archive={store}")
+    scale = compose_config(
+        ["experiment=scale", "agents=1", "task=cylinder", "budget=quick", f"sweep_root={root}", f"archive={store}"],
+        config_name="sweep",
+    )
+    now = {stage.name: stage.identity for stage in planned_stages(main)}
+    assert {stage.name: stage.identity for stage in planned_stages(scale)} == now
+    made = _fake_result(main, now)
+    alike = {"episodes": 50, "seeds": [0]}
+    made["evals"] = {name: {**record, **alike} for name, record in made["evals"].items()}
+    made["curve"] = {"eval": "main", "every_env_steps": 2.0e6, "points": []}
+    made["stage_curves"] = {"mid": {"every_env_steps": 2.0e6, "episodes": 200, "seeds": [0], "points": []}}
+    donor = store / "main_quick" / "method=sa,seed=0,task=cylinder" / RESULT
+    donor.parent.mkdir(parents=True)
+    job = root / "scale_quick" / "agents=1,method=ours,seed=0,task=cylinder"
+
+    def twin(record: dict):
+        donor.write_text(json.dumps(record))
+        return archive.twin_job(scale, job, planned_stages(scale))
+
+    found, evals, curve = twin(made)
+    assert Path(found.job_dir) == donor.parent and sorted(evals) == ["main"]  # the study asks for no legged eval
+    assert curve["eval"] == "main" and curve["rule"] == OmegaConf.to_container(scale.experiment.budget_rule)
+    assert twin({**made, "stage_curves": None}) is None  # the study asks for the mid level's own curve
+    assert twin({**made, "curve": None}) is None
+    fewer = {**made, "evals": {n: {**e, "episodes": 49} for n, e in made["evals"].items()}}
+    assert twin(fewer) is None
+    assert twin(_fake_result(main, {**now, "high": "0123456789abcdef"})) is None  # another stage
+    # a job is no twin of itself: its own archived result counts only as `archived_result` judges it
+    own = store / "scale_quick" / job.name / RESULT
+    own.parent.mkdir(parents=True)
+    donor.unlink()
+    own.write_text(json.dumps(made))
+    assert archive.twin_job(scale, job, planned_stages(scale)) is None
 
 
 def test_a_job_refuses_code_older_than_the_package_files_and_trains_nothing(tmp_path, monkeypatch):

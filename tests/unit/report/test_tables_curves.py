@@ -298,7 +298,7 @@ def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli
         result = {
             "table": "scale", "variant": "quick", "method": "ours", "task": "cylinder", "num_agents": 3, "seed": seed,
             "stages": {"mid": "gone/mid", "high": "gone/high"},
-            "evals": {"main": {"success_rate": 0.8, "completion_time": 0.5}, "mid": {"success_rate": 0.8}},
+            "evals": {"main": {"success_rate": 0.8, "completion_time": 0.5}},
             "curve": {"eval": "main", "every_env_steps": 2e6, "reach": 0.5, "rule": RULE,
                       "points": points([0.6, 0.7, 0.8])},
         }  # fmt: skip
@@ -328,9 +328,13 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
         4: ((0.7, 0.8), 0.5, (0.8, 0.8)),
         6: ((0.95, 0.95), 0.3, (0.99, 0.99)),
     }
+
+    def own_curve(end: float) -> dict:  # the mid level alone: the last point of its own curve is its figure
+        return {"mid": {"points": [{"success_rate": 0.05}, {"success_rate": end}]}}
+
     results = [
         JobResult(job_dir=f"agents={n},seed={seed}", table="scale", variant="quick", num_agents=n, seed=seed,
-                  evals={"main": {"success_rate": sr[seed], "completion_time": ct}, "mid": {"success_rate": mid[seed]}})
+                  evals={"main": {"success_rate": sr[seed], "completion_time": ct}}, stage_curves=own_curve(mid[seed]))
         for n, (sr, ct, mid) in made.items() for seed in (0, 1)
     ]  # fmt: skip
     findings = scale_table(results, "quick").findings
