@@ -125,20 +125,24 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     return None if result_changes(read_result(path), cfg, planned, archive) else path
 
 
-def twin_job(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> tuple[JobResult, dict, dict | None] | None:
+def twin_job(
+    cfg: DictConfig, job_dir: Path, planned: list[PlannedStage], finished: list[JobResult] | None = None
+) -> tuple[JobResult, dict, dict | None] | None:
     """A finished job of another sweep, under the sweep root or in the archive, that made what this job would make:
     its stages the ones this job plans (the same identities), and every evaluation this job asks for made alike
     (the same overrides, locomotion policy, episodes and seeds), with its learning curve where the budget asks for
     one. Returns (that result, the evaluations, the curve) as `still_valid` keeps them for this job, or None. Such
     a job is done already: the scalability study's 1- and 3-robot jobs are the main table's SA and Ours jobs of
-    the cylinder. The first such job found in sweep order counts."""
-    roots = [Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])]
+    the cylinder. The first such job found in sweep order counts. `finished`: the results under those roots, when
+    the caller has read them already (`load_results`)."""
+    if finished is None:
+        finished = load_results([Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])])
     own = (Path(job_dir).parent.name, Path(job_dir).name)
     budget = budget_of(cfg)
     asked = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
     alike = {"episodes": int(budget.eval.episodes), "seeds": [int(s) for s in budget.eval.seeds]}
     wanted = {stage.name for stage in planned}
-    for result in load_results(roots):
+    for result in finished:
         root = Path(result.job_dir).parent.parent
         if job_key(Path(result.job_dir) / RESULT) == own or set(result.stages) != wanted:
             continue

@@ -218,7 +218,8 @@ def dry_run(overrides: list[str]) -> list[dict]:
     unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
     rows, seen, changed, finished, taken = [], set(), [], 0, 0
     roots = _roots(compose_config(combos[0], config_name="sweep"))
-    rates = stages.cost_per_env_step(load_results(roots), roots)
+    finished_results = load_results(roots)
+    rates = stages.cost_per_env_step(finished_results, roots)
     for combo in combos:
         cfg = compose_config(combo, config_name="sweep")
         job = ",".join(sorted(o for o in combo if o.partition("=")[0] not in unnamed))  # Hydra's override_dirname
@@ -227,7 +228,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
         if not result.is_file() and archived_result(cfg, result.parent, planned) is not None:
             finished += 1  # finished on another machine, and archived (`mapush archive`)
             continue
-        if not result.is_file() and twin_job(cfg, result.parent, planned) is not None:
+        if not result.is_file() and twin_job(cfg, result.parent, planned, finished_results) is not None:
             finished, taken = finished + 1, taken + 1  # made already by another sweep's job
             continue
         if result.is_file():

@@ -22,27 +22,37 @@ def matching(results: list[JobResult], **match) -> list[JobResult]:
 def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cell:
     """The cell of the results that match (key: value or eval name), for one metric of one evaluation."""
     eval_name = match.pop("eval")
-    cell = Cell()
-    for r in matching(results, **match):
-        if eval_name in r.evals:
-            cell.values.append(scale * r.evals[eval_name][metric])
-            cell.sources.append(r.job_dir)
-            change = r.made_otherwise
-            cell.otherwise += change is not None and change.concerns(r, eval_name)
-    return cell
+    return _gathered(
+        matching(results, **match),
+        lambda r: r.evals[eval_name][metric] if eval_name in r.evals else None,
+        lambda r, change: change.concerns(r, eval_name),
+        scale,
+    )
 
 
 def final_cell(results: list[JobResult], stage: str, scale: float, **match) -> Cell:
     """The cell of the last point of each matching result's own curve of `stage` (`stage_curves`: e.g. the mid
     level alone under a high level, at the end of its budget), for its success rate."""
-    cell = Cell()
-    for r in matching(results, **match):
+
+    def last(r: JobResult) -> float | None:
         points = ((r.stage_curves or {}).get(stage) or {}).get("points")
-        if points:
-            cell.values.append(scale * points[-1]["success_rate"])
-            cell.sources.append(r.job_dir)
-            change = r.made_otherwise
-            cell.otherwise += change is not None and change.concerns_stage(r, stage)
+        return points[-1]["success_rate"] if points else None
+
+    return _gathered(matching(results, **match), last, lambda r, change: change.concerns_stage(r, stage), scale)
+
+
+def _gathered(results: list[JobResult], value, concerned, scale: float) -> Cell:
+    """A cell of `value(r)` x `scale` for each result that has one (None: it has none), with its job dir, counting
+    the results made otherwise than planned now whose change is `concerned(r, change)` with that value."""
+    cell = Cell()
+    for r in results:
+        found = value(r)
+        if found is None:
+            continue
+        cell.values.append(scale * found)
+        cell.sources.append(r.job_dir)
+        change = r.made_otherwise
+        cell.otherwise += change is not None and concerned(r, change)
     return cell
 
 
