@@ -160,7 +160,7 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
             line = f"{label}: on {what} Ours loses {gap:.1f} points of S.R., {verdict} {LEGGED_GAP:g} points"
             lines.append(Finding(line + _ended_by(mine, task, eval_name), gap <= LEGGED_GAP, {"gap_points": gap}))
     lines += _legged_baseline(mine, paper, task)
-    return lines
+    return lines + _exceptions_finding(mine, paper, task)
 
 
 def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:
@@ -201,12 +201,43 @@ def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Find
     return lines
 
 
-def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
-    """The end of a finding line: which exceptions ended the evaluation's episodes, where its records name them."""
-    shares = [r.evals[eval_name]["exceptions"] for r in matching(results, method="ours", task=task)
+def _exception_shares(results: list[JobResult], method: str, task: str, eval_name: str) -> tuple[dict, int]:
+    """Which exceptions ended one method's episodes of an evaluation: % of the episodes by kind, largest first
+    (mean over the seeds whose records name them; kinds that ended none left out), and how many seeds that is."""
+    shares = [r.evals[eval_name]["exceptions"] for r in matching(results, method=method, task=task)
               if "exceptions" in r.evals.get(eval_name, {})]  # fmt: skip
     if not shares:
-        return ""
+        return {}, 0
     mean = {kind: 100.0 * float(np.mean([s[kind] for s in shares])) for kind in shares[0]}
-    named = [f"{kind} {share:.0f} %" for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0]
-    return f"; episodes ended by {', '.join(named)} (mean over {len(shares)} seeds)" if named else ""
+    return {kind: share for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0}, len(shares)
+
+
+def _named(shares: dict) -> str:
+    return ", ".join(f"{kind} {share:.0f} %" for kind, share in shares.items())
+
+
+def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
+    """The end of a finding line: which exceptions ended Ours' episodes of the evaluation, where its records name
+    them."""
+    shares, seeds = _exception_shares(results, "ours", task, eval_name)
+    return f"; episodes ended by {_named(shares)} (mean over {seeds} seeds)" if shares else ""
+
+
+def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
+    """One line per object: what ended each method's episodes of the main evaluation (falls, collisions, ...), so
+    a low S.R. reads with its cause."""
+    parts, clean, numbers = [], [], {}
+    for method in paper["methods"]:
+        shares, seeds = _exception_shares(mine, method, task, "main")
+        label = paper["labels"][method]
+        if shares:
+            parts.append(f"{label} {_named(shares)}")
+            numbers.update({f"{label} {kind}": share for kind, share in shares.items()})
+        elif seeds:
+            clean.append(label)
+    if clean:
+        parts.append(f"none: {', '.join(clean)}")
+    if not parts:
+        return []
+    text = f"{paper['task_labels'][task]}: episodes ended by an exception (mean over seeds): {'; '.join(parts)}"
+    return [Finding(text, numbers=numbers)]

@@ -234,6 +234,25 @@ def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
     )
 
 
+def test_each_object_says_what_ended_each_method_s_episodes():
+    from mapush.report.main_table import PAPER, _main_findings
+
+    def job(method, seed, **exceptions):
+        kinds = {"robot_collision": 0.0, "robot_tilt": 0.0, "diverged": 0.0} | exceptions
+        main = {"success_rate": 0.5, "completion_time": 0.7, "exceptions": kinds}
+        return JobResult(method=method, task="cuboid", seed=seed, evals={"main": main}, job_dir=f"{method}{seed}")
+
+    jobs = [job("ours", 0, robot_tilt=0.1), job("ours", 1, robot_tilt=0.3, robot_collision=0.04),
+            job("ml", 0, robot_collision=0.5), job("sa", 0)]  # fmt: skip
+    last = _main_findings(jobs, PAPER["main"], "cuboid")[-1]
+    # Ours: tilt (10 + 30) / 2 = 20 %, collision (0 + 4) / 2 = 2 %; M+L collision 50 %; SA none; H+L no job
+    assert str(last) == (
+        "Cuboid: episodes ended by an exception (mean over seeds): M+L robot_collision 50 %; "
+        "Ours robot_tilt 20 %, robot_collision 2 %; none: SA"
+    )
+    assert last.holds is None and last.numbers["Ours robot_tilt"] == pytest.approx(20.0)
+
+
 def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
     from mapush.report.formats import Cell
     from mapush.report.scale_table import _reference_mid_finding
