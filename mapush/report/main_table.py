@@ -225,11 +225,12 @@ def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
 
 def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
     """One line per object: what ended each method's episodes of the main evaluation (falls, collisions, ...), so
-    a low S.R. reads with its cause."""
+    a low S.R. reads with its cause; a method whose cell is marked as made otherwise (\u2020) is marked so here."""
     parts, clean, numbers = [], [], {}
     for method in paper["methods"]:
         shares, seeds = _exception_shares(mine, method, task, "main")
-        label = paper["labels"][method]
+        otherwise = collect(mine, "success_rate", 1.0, method=method, task=task, eval="main").otherwise
+        label = paper["labels"][method] + (" \u2020" if otherwise else "")
         if shares:
             parts.append(f"{label} {_named(shares)}")
             numbers.update({f"{label} {kind}": share for kind, share in shares.items()})

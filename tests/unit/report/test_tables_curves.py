@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mapush.eval.curve_points import tail_gain
-from mapush.experiments.results import RESULT, JobResult
+from mapush.experiments.results import RESULT, Change, JobResult
 from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, latex, markdown, sidecar
 
 RULE = {"tail": 0.2, "max_gain": 0.03}
@@ -251,6 +251,8 @@ def test_each_object_says_what_ended_each_method_s_episodes():
         "Ours robot_tilt 20 %, robot_collision 2 %; none: SA"
     )
     assert last.holds is None and last.numbers["Ours robot_tilt"] == pytest.approx(20.0)
+    jobs[-1].made_otherwise = Change("stages", "its stages changed", ("mid",))  # SA's job: made otherwise
+    assert str(_main_findings(jobs, PAPER["main"], "cuboid")[-1]).endswith("; none: SA \u2020")
 
 
 def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
