@@ -123,6 +123,10 @@ def compose_config(
                 raise BadInput(_unknown_key_message(base, str(full_key))) from None
             raise BadInput(f"bad override: {first_line(err)}") from None
     check_config(cfg)  # types and ranges, before anything is built or written
+    task = [o.split("=", 1)[1] for o in overrides if o.lstrip("+").startswith("task=")][-1:]
+    if config_name == "config" and task and cfg.task.name != task[0] and not any("task.name=" in o for o in overrides):
+        # a task file copied from another that kept its `name:` would be trained, swept and filed as that one
+        raise BadInput(f"task={task[0]}: its file says name: {cfg.task.name}; valid: name: {task[0]} (the file's)")
     if not hydra:
         _COMPOSED[key] = (files, copy.deepcopy(cfg))
         while len(_COMPOSED) > COMPOSED_KEPT:

@@ -14,7 +14,6 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
-from mapush.commands.plan import make_planner
 from mapush.config import sim_threads, to_plain
 from mapush.envs.high import HighPushEnv
 from mapush.envs.low import TRACKING_ERRORS, LocomotionEnv
@@ -26,12 +25,14 @@ from mapush.envs.observations import agents_for_local_dim
 from mapush.errors import BadInput
 from mapush.logging.foxglove_scene import SceneLayout
 from mapush.logging.go1_scene import Go1Layout
+from mapush.planning.planner import ObjectPlanner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
 from mapush.rundir import resolve_checkpoint
 from mapush.schema import check_config
+from mapush.sim.shapes import object_radius
 
 
 @dataclass(frozen=True)
@@ -140,6 +141,12 @@ def make_env(cfg: dict, evaluation: bool = False):
     if level.planner and cfg["level"]["path"]["plan_at_eval" if evaluation else "plan_in_training"]:
         extra["planner"] = make_planner(cfg)
     return level.env(cfg, evaluation=evaluation, **extra)
+
+
+def make_planner(cfg: dict) -> ObjectPlanner:
+    """The configured OMPL planner for the config's task and room, seeded with the config's seed."""
+    radius = object_radius(cfg["task"]["object"])
+    return ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius, seed=int(cfg["seed"]))
 
 
 def torch_threads(cfg: dict) -> tuple[int, int]:

@@ -78,11 +78,12 @@ def plan(
 
     from mapush.commands import plan as planning
     from mapush.config import compose_config, to_plain
+    from mapush.levels import make_planner
 
     if maps < 1:
         raise BadInput(f"--maps {maps} must be 1 or more")
     cfg = to_plain(compose_config(["level=high", f"task={task}", f"seed={seed}", *ctx.args]))
-    planner = planning.make_planner(cfg)
+    planner = make_planner(cfg)
     try:
         record, _ = planning.plan_map(cfg, seed, planner)
         state = "valid" if record["valid"] else ("INVALID" if record["solved"] else "no path found (planner failure)")

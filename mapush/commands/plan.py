@@ -27,12 +27,6 @@ def random_map(cfg: dict, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return layout["object_xy"][0].numpy(), layout["target_xy"][0].numpy(), obstacles[0].numpy()
 
 
-def make_planner(cfg: dict) -> ObjectPlanner:
-    """The configured OMPL planner for the config's task and room, seeded with the config's seed."""
-    radius = object_radius(cfg["task"]["object"])
-    return ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius, seed=int(cfg["seed"]))
-
-
 def plan_map(cfg: dict, seed: int, planner: ObjectPlanner) -> tuple[dict, PlanResult]:
     """Plan the map of `seed`; returns the JSON record and the raw result."""
     start, goal, obstacles = random_map(cfg, seed)

@@ -33,6 +33,9 @@ def exception_names(cfg: dict) -> tuple[str, ...]:
 class EnvCore:
     """E envs with `rows` policy rows each (agents, or one per team), stepped as one batch.
 
+    A level subclasses it and writes `step` (ending in `_finish_step`), `_start_episodes`, `_read_state` and
+    `scene_frame`, sets `num_actions`, and adds its own config checks to `validate`.
+
     `action_limit`: |action| the env acts on; a step clips actions to it, so beyond it an action changes nothing.
 
     Attributes every level has (E = `num_envs`):
@@ -76,6 +79,23 @@ class EnvCore:
         self.last_parts = {name: torch.zeros(E, rows) for name in self.rewards.terms}
         self.outcomes = EpisodeOutcomes()
         self.recorders = []
+
+    num_actions: int
+    """Action width of one policy row."""
+
+    @classmethod
+    def validate(cls, cfg: dict) -> None:
+        """Check a config before anything is built or written (BadInput); a level adds its own checks."""
+        cls.check_terms(cfg)
+
+    def step(self, actions: torch.Tensor) -> tuple[dict, torch.Tensor, torch.Tensor, torch.Tensor, dict]:
+        """One policy step of every env: act, simulate, read the state, flag exceptions, reward (before any reset),
+        then `_finish_step`. Returns observations, reward (E, rows), terminated, truncated (E,) and info."""
+        raise NotImplementedError
+
+    def scene_frame(self) -> dict[str, torch.Tensor]:
+        """What a viewer draws of every env now (before resets), by name: tensors over the envs."""
+        raise NotImplementedError
 
     @staticmethod
     def check_terms(cfg: dict) -> None:

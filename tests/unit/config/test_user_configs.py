@@ -42,6 +42,16 @@ def test_without_the_searchpath_the_task_is_unknown_and_the_message_says_how(cli
     assert_bad_input(proc, "unknown task 'long_box'", "hydra.searchpath", "cuboid")
 
 
+def test_a_task_file_that_kept_another_task_s_name_is_refused_before_anything_is_written(cli, tmp_path):
+    mine = tmp_path / "my_configs"
+    (mine / "task").mkdir(parents=True)
+    (mine / "task" / "wide_box.yaml").write_text((CONF_DIR / "task" / "cuboid.yaml").read_text())  # name: cuboid
+    runs = tmp_path / "runs"
+    proc = cli("train", f"hydra.searchpath=[file://{mine}]", "task=wide_box", "debug=smoke", f"train.run_root={runs}")
+    assert_bad_input(proc, "task=wide_box", "name: cuboid", "valid: name: wide_box")
+    assert not runs.exists()
+
+
 def test_a_config_composed_again_is_a_copy_and_follows_its_file_when_it_changes(tmp_path):
     from mapush.config import compose_config
 
