@@ -24,10 +24,27 @@ EXTRA_COLUMNS = {
 conf/experiment/main.yaml that name a `column` (path following; the legged Go1s that the paper's robots were)."""
 
 
-def main_table(results: list[JobResult], variant: str) -> Table:
-    """Table II's layout: rows task x metric, columns the methods in the paper's order."""
+def with_yours(results: list[JobResult]) -> dict:
+    """The paper's Table II layout (`paper.yaml`'s main part) with the methods and tasks of `results` it lacks (a
+    method or task of yours) after its own, labelled by the method's `label` or the task's name; they have no
+    paper numbers."""
     paper = PAPER["main"]
+    methods = [*paper["methods"], *sorted({r.method for r in results} - set(paper["methods"]))]
+    tasks = [*paper["tasks"], *sorted({r.task for r in results} - set(paper["tasks"]))]
+    labels = {m: next((r.method_label for r in results if r.method == m and r.method_label), m) for m in methods}
+    return {
+        **paper,
+        "methods": methods,
+        "tasks": tasks,
+        "labels": {**labels, **paper["labels"]},
+        "task_labels": {**{t: t for t in tasks}, **paper["task_labels"]},
+    }
+
+
+def main_table(results: list[JobResult], variant: str) -> Table:
+    """Table II's layout: rows task x metric, columns the methods in the paper's order (then any of yours)."""
     mine = [r for r in results if r.table == "main" and r.variant == variant]
+    paper = with_yours(mine)
     methods = paper["methods"]
     rows, missing, findings = [], [], []
     for task in paper["tasks"]:
@@ -38,7 +55,8 @@ def main_table(results: list[JobResult], variant: str) -> Table:
             cells = []
             for method in methods:
                 cell = collect(mine, key, scale, method=method, task=task, eval="main")
-                cell.paper, cell.digits = tuple(paper[metric][task][method]), digits
+                published = paper[metric].get(task, {}).get(method)
+                cell.paper, cell.digits = (tuple(published) if published else None), digits
                 if not cell.values:
                     missing.append(f"{method} / {task} / {metric}: no finished job")
                 cells.append(cell)
@@ -99,26 +117,7 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
     if not ours:
         return []
     mean, label = float(np.mean(ours)), paper["task_labels"][task]
-    ct = float(np.mean(collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").values))
-    paper_sr, paper_ct = paper["success_rate"][task]["ours"][0], paper["completion_time"][task]["ours"][0]
-    text = (
-        f"{label}: Ours S.R. {mean:.1f} % vs the paper's {paper_sr:.1f} % ("
-        + ("holds: at or above" if mean >= paper_sr else "does not hold: below")
-        + f"), C.T. {ct:.2f} vs {paper_ct:.2f} ("
-        + ("holds: at or below" if ct <= paper_ct else "does not hold: above")
-        + ")"
-    )
-    numbers = {"ours_sr": mean, "paper_sr": paper_sr, "ours_ct": ct, "paper_ct": paper_ct}
-    lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers)]
-    timeouts = {r.evals.get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
-    mine_t, paper_t = success_time(mean / 100, ct), success_time(paper_sr / 100, paper_ct)
-    if len(timeouts) == 1 and None not in timeouts and mine_t is not None and paper_t is not None:
-        (timeout,) = timeouts
-        text = (
-            f"{label}: Ours' successes take {mine_t * timeout:.0f} s on average, the paper's {paper_t * timeout:.0f} s "
-            f"(from S.R. and C.T., a failure counting as the {timeout:.0f} s timeout)"
-        )
-        lines.append(Finding(text, numbers={"ours_success_s": mine_t * timeout, "paper_success_s": paper_t * timeout}))
+    lines = _against_the_paper(mine, paper, task, mean) if task in paper["success_rate"] else []  # not a task of yours
     beaten = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) >= mean]
     below = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) < mean]
     if beaten or below:
@@ -161,6 +160,32 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
             lines.append(Finding(line + _ended_by(mine, task, eval_name), gap <= LEGGED_GAP, {"gap_points": gap}))
     lines += _legged_baseline(mine, paper, task)
     return lines + _exceptions_finding(mine, paper, task)
+
+
+def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: float) -> list[Finding]:
+    """Ours' S.R. (`mean`) and C.T. on one of the paper's objects against the paper's; how fast its successes are."""
+    label = paper["task_labels"][task]
+    ct = float(np.mean(collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").values))
+    paper_sr, paper_ct = paper["success_rate"][task]["ours"][0], paper["completion_time"][task]["ours"][0]
+    text = (
+        f"{label}: Ours S.R. {mean:.1f} % vs the paper's {paper_sr:.1f} % ("
+        + ("holds: at or above" if mean >= paper_sr else "does not hold: below")
+        + f"), C.T. {ct:.2f} vs {paper_ct:.2f} ("
+        + ("holds: at or below" if ct <= paper_ct else "does not hold: above")
+        + ")"
+    )
+    numbers = {"ours_sr": mean, "paper_sr": paper_sr, "ours_ct": ct, "paper_ct": paper_ct}
+    lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers)]
+    timeouts = {r.evals.get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
+    mine_t, paper_t = success_time(mean / 100, ct), success_time(paper_sr / 100, paper_ct)
+    if len(timeouts) == 1 and None not in timeouts and mine_t is not None and paper_t is not None:
+        (timeout,) = timeouts
+        text = (
+            f"{label}: Ours' successes take {mine_t * timeout:.0f} s on average, the paper's {paper_t * timeout:.0f} s "
+            f"(from S.R. and C.T., a failure counting as the {timeout:.0f} s timeout)"
+        )
+        lines.append(Finding(text, numbers={"ours_success_s": mine_t * timeout, "paper_success_s": paper_t * timeout}))
+    return lines
 
 
 def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:

@@ -443,3 +443,23 @@ def test_curves_from_jobs_made_otherwise_are_marked_in_the_legend(tmp_path, monk
     curves_plot(panels, tmp_path / "mid.png", "Mid", stage="mid")
     assert drawn["main.png"] == [f"Main\n{OTHERWISE_LEGEND}", f"SA (1 seeds) {OTHERWISE}", "Ours (1 seeds)"]
     assert drawn["mid.png"] == ["Mid", "SA (1 seeds)", "Ours (1 seeds)"]  # its mid level did not change
+
+
+def test_a_method_and_a_task_of_yours_get_their_column_and_rows_without_paper_numbers():
+    from mapush.report.main_table import main_table
+
+    def job(method, task, sr, label=""):
+        main = {"success_rate": sr, "completion_time": 0.5}
+        return JobResult(table="main", variant="quick", method=method, method_label=label, task=task, seed=0,
+                         evals={"main": main}, job_dir=f"{method}-{task}")  # fmt: skip
+
+    table = main_table([job("ours", "cuboid", 0.8), job("mine", "cuboid", 0.6, "Mine"), job("ours", "wide_box", 0.7)],
+                       "quick")  # fmt: skip
+    assert table.columns.index("Mine") == 6  # after the paper's six methods
+    rows = {tuple(labels): cells for labels, cells in table.rows}
+    mine = rows[("Cuboid", "S.R. (%) \u2191")][6]
+    assert mine.values == [60.0] and mine.paper is None and mine.text() == "60.0 (1 seed)"
+    wide = rows[("wide_box", "S.R. (%) \u2191")]
+    assert wide[5].values == [70.0] and wide[5].paper is None  # Ours on a task the paper never ran
+    assert not any("wide_box: Ours S.R." in str(f) for f in table.findings)  # nothing of the paper's to hold against
+    assert any(str(f).startswith("Cuboid: Ours S.R. 80.0 % vs the paper's 77.5 %") for f in table.findings)
