@@ -260,7 +260,7 @@ class LocomotionEnv(EnvCore):
         """Check the robot and the terms (events included) before anything is built."""
         if backend_name(cfg["lowlevel"]) != "go1":
             raise BadInput(f"level=low trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1")
-        cls.check_terms(cfg)
+        super().validate(cfg)
         event_specs(cfg["level"], evaluation=False)
 
 

@@ -77,7 +77,7 @@ class PushEnv(EnvCore):
             raise BadInput(f"unknown lowlevel backend {backend_name(cfg['lowlevel'])!r}; valid: {', '.join(BACKENDS)}")
         backend_of(cfg["lowlevel"]).check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
         check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
-        cls.check_terms(cfg)
+        super().validate(cfg)
 
     def _read_state(self) -> None:
         self.state = self.sim.read()

@@ -31,12 +31,13 @@ def with_yours(results: list[JobResult]) -> dict:
     paper = PAPER["main"]
     methods = [*paper["methods"], *sorted({r.method for r in results} - set(paper["methods"]))]
     tasks = [*paper["tasks"], *sorted({r.task for r in results} - set(paper["tasks"]))]
-    labels = {m: next((r.method_label for r in results if r.method == m and r.method_label), m) for m in methods}
+    yours = {m: next((r.method_label for r in results if r.method == m and r.method_label), m)
+             for m in methods if m not in paper["labels"]}  # fmt: skip
     return {
         **paper,
         "methods": methods,
         "tasks": tasks,
-        "labels": {**labels, **paper["labels"]},
+        "labels": {**paper["labels"], **yours},
         "task_labels": {**{t: t for t in tasks}, **paper["task_labels"]},
     }
 
