@@ -19,7 +19,7 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput, first_line
 from mapush.migrations import absent_meant, stamp, upgrade_run_config
-from mapush.schema import check_config
+from mapush.schema import check_config, task_weight_names
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
 """The `mapush/conf/` tree: package data, so a checkout, an editable install and a wheel all compose alike."""
@@ -122,7 +122,7 @@ def compose_config(
                 base = compose(config_name=config_name, overrides=[o for o in overrides if full_key not in o])
                 raise BadInput(_unknown_key_message(base, str(full_key))) from None
             raise BadInput(f"bad override: {first_line(err)}") from None
-    check_config(cfg)  # types and ranges, before anything is built or written
+    check_config(cfg, task_weight_names([CONF_DIR, *search_dirs(overrides)]))  # before anything is built or written
     task = [o.split("=", 1)[1] for o in overrides if o.lstrip("+").startswith("task=")][-1:]
     if config_name == "config" and task and cfg.task.name != task[0] and not any("task.name=" in o for o in overrides):
         # a task file copied from another that kept its `name:` would be trained, swept and filed as that one

@@ -9,7 +9,9 @@ Keys a config lacks (the low level has no success distance) are skipped.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
+from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
@@ -111,8 +113,9 @@ NAMES = ("task.name", "level.name", "lowlevel.name")
 """Keys that name things (and so run dirs): one word each, never a path or a mapping."""
 
 
-def check_config(cfg: DictConfig | dict) -> None:
-    """BadInput for the first value of `cfg` that breaks `RULES` or describes an impossible object."""
+def check_config(cfg: DictConfig | dict, task_weights: set[str] | None = None) -> None:
+    """BadInput for the first value of `cfg` that breaks `RULES` or describes an impossible object, or (given the
+    keys the reward files read, `task_weight_names`) a task weight that no reward term reads."""
     cfg = cfg if isinstance(cfg, DictConfig) else OmegaConf.create(cfg)
     absent = object()
     for key, (kind, test, valid) in RULES.items():
@@ -127,6 +130,8 @@ def check_config(cfg: DictConfig | dict) -> None:
     for name, term in (OmegaConf.select(cfg, "reward.terms", default=None) or {}).items():
         if term is not None and "weight" in term:  # a NaN weight would make every total NaN, then zero
             _check_value(f"reward.terms.{name}.weight", term.weight, float, lambda v: True, "a finite number")
+    if task_weights is not None:
+        check_task_weights(cfg, task_weights)
     for key in NAMES:
         value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
         if value is not None and not (isinstance(value, str) and value.replace("_", "").replace("-", "").isalnum()):
@@ -139,6 +144,25 @@ def check_config(cfg: DictConfig | dict) -> None:
         except Exception as err:  # OmegaConf's interpolation errors have several types
             raise BadInput(f"algo does not resolve ({first_line(err)})") from None
         check_class_names("algo", resolved)
+
+
+TASK_WEIGHT = re.compile(r"task\.reward_weights\.(\w+)")
+"""How a reward file reads a task's own weight of a term (`${oc.select:task.reward_weights.NAME,...}`)."""
+
+
+def task_weight_names(conf_dirs) -> set[str]:
+    """The `task.reward_weights` keys that some reward file (`<dir>/reward/*.yaml`) of `conf_dirs` reads."""
+    files = (f for d in conf_dirs for f in sorted(Path(d).glob("reward/*.yaml")))
+    return {name for f in files for name in TASK_WEIGHT.findall(f.read_text())}
+
+
+def check_task_weights(cfg: DictConfig, readable: set[str]) -> None:
+    """BadInput for a `task.reward_weights` key that no reward file reads (a typo would weigh nothing)."""
+    unknown = sorted(set(OmegaConf.select(cfg, "task.reward_weights", default=None) or {}) - readable)
+    if unknown:
+        raise BadInput(
+            f"task.reward_weights.{unknown[0]} is read by no reward term; valid: {', '.join(sorted(readable))}"
+        )
 
 
 def _check_value(key: str, value, kind: type, test: Callable, valid: str) -> None:

@@ -7,7 +7,7 @@ import numpy as np
 import torch
 
 from mapush.envs.base import EnvCore
-from mapush.envs.resets import check_agent_count
+from mapush.envs.resets import check_agent_count, check_spawn_ring
 from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS, backend_name, backend_of
 from mapush.planning.geometry import corners
@@ -72,11 +72,12 @@ class PushEnv(EnvCore):
 
     @classmethod
     def validate(cls, cfg: dict) -> None:
-        """Check a config before anything is built or written: low-level backend, agent count, the terms."""
+        """Check a config before anything is built or written: low-level backend, agent count, spawn ring, terms."""
         if backend_name(cfg["lowlevel"]) not in BACKENDS:
             raise BadInput(f"unknown lowlevel backend {backend_name(cfg['lowlevel'])!r}; valid: {', '.join(BACKENDS)}")
         backend_of(cfg["lowlevel"]).check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
         check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
+        check_spawn_ring(cfg)
         super().validate(cfg)
 
     def _read_state(self) -> None:

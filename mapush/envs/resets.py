@@ -32,6 +32,18 @@ def check_agent_count(task_cfg: dict, min_distance: float) -> None:
         raise BadInput(f"task.num_agents={n} does not fit the {task_cfg['name']} spawn ring; valid: 1 to {cap}")
 
 
+def check_spawn_ring(cfg: dict) -> None:
+    """Raise BadInput unless a robot on the task's spawn ring clears the object: the ring's inner radius must
+    exceed the object's reach from its centre plus half the robot's footprint length (`lowlevel.size`)."""
+    inner, robot_reach = cfg["task"]["spawn"]["agent_radius"][0], max(cfg["lowlevel"]["size"][:2]) / 2
+    least = object_radius(cfg["task"]["object"]) + robot_reach
+    if not inner > least:
+        raise BadInput(
+            f"task.spawn.agent_radius={list(cfg['task']['spawn']['agent_radius'])} starts robots inside the "
+            f"{cfg['task']['name']}; valid: an inner radius above {least:.3f} m (object reach + half a robot)"
+        )
+
+
 def uniform(gen: torch.Generator, low: float, high: float, *shape: int) -> torch.Tensor:
     """Uniform samples in [low, high)."""
     return low + (high - low) * torch.rand(*shape, generator=gen)

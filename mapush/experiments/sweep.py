@@ -19,7 +19,16 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Glob
 from omegaconf import DictConfig, OmegaConf
 
-from mapush.config import CONF_DIR, compose_config, group_file, group_options, load_run_config, overrides_name, to_plain
+from mapush.config import (
+    CONF_DIR,
+    compose_config,
+    group_file,
+    group_options,
+    load_run_config,
+    overrides_name,
+    search_dirs,
+    to_plain,
+)
 from mapush.errors import BadInput, first_line
 from mapush.experiments import stages
 from mapush.experiments.archive import archived_result, load_results, twin_job
@@ -27,7 +36,7 @@ from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes
-from mapush.experiments.workers import SWEEP_PID, stop_with_the_sweep
+from mapush.experiments.workers import SWEEP_PID, job_threads, stop_with_the_sweep
 
 SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
 STAGE_GROUPS = ("task",)
@@ -75,24 +84,6 @@ def job(cfg: DictConfig) -> str:
         between_jobs.set()
 
 
-def job_threads(cfg: DictConfig) -> int:
-    """Threads of one job: `job_threads`, or the cores it was given shared among the local launcher's concurrent
-    jobs (a SLURM or Ray job gets its allocation, not the node's every core)."""
-    if int(cfg.job_threads) > 0:
-        return int(cfg.job_threads)
-    concurrent = int(HydraConfig.get().launcher.get("n_jobs") or 1)  # joblib's cap; others: one job per process
-    return max(1, available_cores() // concurrent)
-
-
-def available_cores() -> int:
-    """The cores this process may use: SLURM's allocation, else the CPU affinity (containers, Ray), else all."""
-    if os.environ.get("SLURM_CPUS_PER_TASK", "").isdigit():
-        return int(os.environ["SLURM_CPUS_PER_TASK"])
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
-
-
 def sweep_overrides(overrides: list[str]) -> list[str]:
     """The command line overrides plus the experiment's axes that the user did not give (as comma lists).
 
@@ -103,18 +94,21 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     overrides = [_as_axis(o) for o in overrides]
     stage = [o for o in overrides if not _is_sweep_key(o)]
     overrides = [o for o in overrides if _is_sweep_key(o)]
-    if stage:
+    searchpath = [o for o in overrides if _is_searchpath(o)]  # the sweep's and every stage's: tasks of yours
+    if stage or searchpath:
         if any(o.startswith("overrides=") for o in overrides):
-            raise BadInput(f"give stage overrides either as overrides=[...] or bare, not both: {' '.join(stage)}")
-        overrides.append(every_stage_override(stage))
-        if not any(o.startswith("sweep_name=") for o in overrides):  # keep them apart from the plain sweep
+            raise BadInput(
+                f"give stage overrides either as overrides=[...] or bare, not both: {' '.join(stage + searchpath)}"
+            )
+        overrides.append(every_stage_override(stage + searchpath))
+        if stage and not any(o.startswith("sweep_name=") for o in overrides):  # keep them apart from the plain sweep
             overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{overrides_name(stage)}")
     given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
-    given_axes = _split_axes(overrides)
+    given_axes, extra = _split_axes(overrides), search_dirs(searchpath)
     for group in SWEEP_GROUPS:
         for value in given_axes.get(group, []):
-            if value not in group_options(group):
-                raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(group_options(group))}")
+            if value not in group_options(group, extra):
+                raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(group_options(group, extra))}")
     launcher = given.get("launcher", "local")
     _check_launcher_plugin(launcher)
     experiment = group_file("experiment", given.get("experiment", "main"))
@@ -136,6 +130,10 @@ AXIS_ALIASES = {"task.num_agents": "agents"}
 def _as_axis(override: str) -> str:
     key, sep, value = override.partition("=")
     return f"{AXIS_ALIASES[key]}={value}" if sep and key in AXIS_ALIASES else override
+
+
+def _is_searchpath(override: str) -> bool:
+    return override.lstrip("+").partition("=")[0] == "hydra.searchpath"
 
 
 def _is_sweep_key(override: str) -> bool:
@@ -180,7 +178,7 @@ def _check_launcher_plugin(launcher: str) -> None:
 
 def job_combos(overrides: list[str], seeds: bool = True) -> list[list[str]]:
     """Every job of a sweep as its list of `key=value` axis overrides (`seeds=False`: the first seed's jobs only)."""
-    combos: list[list[str]] = [[]]
+    combos: list[list[str]] = [[o for o in overrides if _is_searchpath(o)]]  # every job composes its tasks there
     for key, values in _split_axes(overrides).items():
         if key == "launcher" or key.startswith("hydra"):
             continue
@@ -222,7 +220,8 @@ def dry_run(overrides: list[str]) -> list[dict]:
     rates = stages.cost_per_env_step(finished_results, roots)
     for combo in combos:
         cfg = compose_config(combo, config_name="sweep")
-        job = ",".join(sorted(o for o in combo if o.partition("=")[0] not in unnamed))  # Hydra's override_dirname
+        named = (o for o in combo if o.partition("=")[0] not in unnamed and not _is_searchpath(o))
+        job = ",".join(sorted(named))  # Hydra's override_dirname
         planned = planned_stages(cfg)
         result = Path(hydra_cfg.sweep.dir) / job / RESULT
         if not result.is_file() and archived_result(cfg, result.parent, planned) is not None:

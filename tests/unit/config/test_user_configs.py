@@ -1,4 +1,4 @@
-"""Configs of your own, outside the package: a task file found through `hydra.searchpath`."""
+"""Configs of your own, outside the package: a task file found through `hydra.searchpath`, trained and swept."""
 
 from __future__ import annotations
 
@@ -13,10 +13,11 @@ from mapush.config import CONF_DIR
 
 
 def _my_task(root: Path) -> Path:
-    """`<root>/task/long_box.yaml`: the cuboid, 2 m long, named long_box."""
+    """`<root>/task/long_box.yaml`: the cuboid, 2 m long, named long_box, its robots' ring widened to clear it."""
     task = OmegaConf.load(CONF_DIR / "task" / "cuboid.yaml")
     task.name = "long_box"
     task.object.parts[0].size[0] = 2.0
+    task.spawn.agent_radius = [1.6, 1.7]
     (root / "task").mkdir(parents=True)
     OmegaConf.save(task, root / "task" / "long_box.yaml")
     return root
@@ -36,6 +37,24 @@ def test_a_task_from_a_directory_of_yours_trains_and_evaluates(cli, tmp_path):
     assert json.loads((run_dir / "eval.json").read_text())["task"] == "long_box"
 
 
+@pytest.mark.slow
+def test_a_task_from_a_directory_of_yours_is_swept_and_its_dry_run_names_it(cli, tmp_path):
+    mine = _my_task(tmp_path / "my_configs")
+    sweep = ["sweep", "experiment=main", "method=ours", "task=long_box", f"hydra.searchpath=[file://{mine}]"]
+    sweep += ["budget=smoke", "debug=smoke", f"sweep_root={tmp_path / 'sweeps'}"]
+    planned = cli(*sweep, "--dry-run")
+    assert planned.returncode == 0, planned.stderr
+    assert "1 jobs, 0 finished" in planned.stdout and "method=ours,seed=0,task=long_box  mid" in planned.stdout
+    proc = cli(*sweep)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    (result,) = (tmp_path / "sweeps").glob("main_smoke_debug-smoke/*/result.json")
+    assert result.parent.name == "method=ours,seed=0,task=long_box"  # named as any job, the searchpath left out
+    for run_dir in json.loads(result.read_text())["stages"].values():
+        assert OmegaConf.load(Path(run_dir) / "config.yaml").task.object.parts[0].size[0] == 2.0
+    unknown = cli("sweep", "experiment=main", "task=long_box", "budget=smoke", f"sweep_root={tmp_path / 's2'}")
+    assert_bad_input(unknown, "unknown task 'long_box'", "valid: cuboid")
+
+
 def test_without_the_searchpath_the_task_is_unknown_and_the_message_says_how(cli, tmp_path):
     _my_task(tmp_path / "my_configs")
     proc = cli("train", "task=long_box", "debug=smoke", f"train.run_root={tmp_path / 'runs'}")
@@ -49,6 +68,34 @@ def test_a_task_file_that_kept_another_task_s_name_is_refused_before_anything_is
     runs = tmp_path / "runs"
     proc = cli("train", f"hydra.searchpath=[file://{mine}]", "task=wide_box", "debug=smoke", f"train.run_root={runs}")
     assert_bad_input(proc, "task=wide_box", "name: cuboid", "valid: name: wide_box")
+    assert not runs.exists()
+
+
+def test_a_task_weight_no_reward_term_reads_is_refused(tmp_path):
+    from mapush.config import compose_config
+    from mapush.errors import BadInput
+
+    mine = _my_task(tmp_path / "my_configs")
+    task = OmegaConf.load(mine / "task" / "long_box.yaml")
+    task.reward_weights = {"robot_jam": 0.0, "ocb_weight": 1.0}  # a typo of `ocb`
+    OmegaConf.save(task, mine / "task" / "long_box.yaml")
+    for level in ("mid", "high"):  # whichever level, a task's weight that no reward file reads is a typo
+        with pytest.raises(BadInput, match=r"reward_weights.ocb_weight is read by no reward term; valid: .*ocb, "):
+            compose_config([f"hydra.searchpath=[file://{mine}]", "task=long_box", f"level={level}"])
+    task.reward_weights = {"robot_jam": 0.0, "ocb": 1.0}
+    OmegaConf.save(task, mine / "task" / "long_box.yaml")
+    weights = compose_config([f"hydra.searchpath=[file://{mine}]", "task=long_box", "~reward.terms.ocb"]).task
+    assert weights.reward_weights.ocb == 1.0  # a term the command line drops leaves its task weight valid
+
+
+def test_a_spawn_ring_that_starts_robots_inside_the_object_is_refused(cli, tmp_path):
+    mine = _my_task(tmp_path / "my_configs")
+    task = OmegaConf.load(mine / "task" / "long_box.yaml")
+    task.spawn.agent_radius = [1.2, 1.3]  # the cuboid's ring; the 2 m box reaches 1.17 m from its centre
+    OmegaConf.save(task, mine / "task" / "long_box.yaml")
+    runs = tmp_path / "runs"
+    proc = cli("train", f"hydra.searchpath=[file://{mine}]", "task=long_box", "debug=smoke", f"train.run_root={runs}")
+    assert_bad_input(proc, "task.spawn.agent_radius=[1.2, 1.3]", "long_box", "valid: an inner radius above 1.491 m")
     assert not runs.exists()
 
 
