@@ -14,6 +14,11 @@ PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
 """The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours."""
 
 
+SIGNIFICANT = 6
+"""Significant digits a cell keeps of each value: results hold float32 rates (a 42 % S.R. is 0.41999998688...),
+so that a mean the table prints as 50.0 is 50.0 when a finding compares it."""
+
+
 def matching(results: list[JobResult], **match) -> list[JobResult]:
     """The results whose fields have the values `match` gives (e.g. `method="ours", task="cuboid"`)."""
     return [r for r in results if all(getattr(r, k) == v for k, v in match.items())]
@@ -49,7 +54,7 @@ def _gathered(results: list[JobResult], value, concerned, scale: float) -> Cell:
         found = value(r)
         if found is None:
             continue
-        cell.values.append(scale * found)
+        cell.values.append(float(f"{scale * found:.{SIGNIFICANT}g}"))
         cell.sources.append(r.job_dir)
         change = r.made_otherwise
         cell.otherwise += change is not None and concerned(r, change)

@@ -8,6 +8,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mapush.eval.curve_points import tail_gain
@@ -411,6 +412,24 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     assert "24 kg: 2 (margin " in str(found) and str(found).endswith("64 kg: none of 4")
     team_plot(table, tmp_path / "team.png")
     assert (tmp_path / "team.png").stat().st_size > 0
+
+
+def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
+    from mapush.report.team_table import team_table
+
+    # results hold float32 rates: seeds at 42 % and 58 % average 49.99999851 in float64, printed as 50.0
+    seeds = (float(np.float32(0.42)), float(np.float32(0.58)))
+    assert np.mean([100 * s for s in seeds]) < 50.0
+    results = [
+        JobResult(job_dir=f"agents=2,seed={seed}", table="team", variant="quick", num_agents=2, seed=seed,
+                  task="cylinder", evals={f"m{m}": {"success_rate": sr} for m in (2, 8, 24, 64)})
+        for seed, sr in enumerate(seeds)
+    ]  # fmt: skip
+    table = team_table(results, "quick")
+    cells = dict((tuple(labels), cells) for labels, cells in table.rows)
+    assert cells[("cylinder", "2")][0].text().startswith("50.0 \u00b1 8.0")
+    found = next(f for f in table.findings if str(f).startswith("cylinder:"))
+    assert found.numbers == {"2_kg_robots": 2, "8_kg_robots": 2, "24_kg_robots": 2, "64_kg_robots": 2}
 
 
 def test_curves_from_jobs_made_otherwise_are_marked_in_the_legend(tmp_path, monkeypatch):
