@@ -1,7 +1,7 @@
 """`mapush stages fingerprint`: every level's numbers hashed, to check that a refactor changed no behaviour.
 
 A seeded 16-env rollout (60 steps of seeded random actions) of each registered level on the cuboid, and of the
-mid level on every other task and with one robot (the SA baseline), hashed over observations, rewards, episode
+mid level on the T-block, the cylinder and with one robot (the SA baseline), hashed over observations, rewards, episode
 flags and the outcomes of the episodes that end (`info["episode_end"]`). Run it at two commits and compare the
 JSON lines; equal hashes mean bitwise-equal numbers. `mapush stages rekey` does that before it carries a sweep's
 stages over to a commit whose configs name them differently (`rekey.py`): it runs this file on the mapush of

@@ -3,8 +3,9 @@ of another trained stage an evaluation names), write `result.json`.
 
 Stages live in the sweep root's store (`stages.py`), one run per stage identity, shared by every job and
 experiment that composes the same stage; a job dir holds `result.json`, which names the run dir of each stage.
-Re-running a job skips it when `result.json` exists, reuses stages whose run is finished (it has the exported
-policy), resumes a stage cut after a checkpoint, and restarts one cut before.
+Re-running a job keeps its `result.json` while the experiment plans the job as it was made (else it says so, and
+with `rerun_changed` runs it again); it reuses stages whose run is finished (it has the exported policy), resumes a
+stage cut after a checkpoint, and restarts one cut before.
 
 Besides the evaluated stage's learning curve (`curve`), a budget may ask for the curves of the stages trained
 before it (`curve.stages`, e.g. the mid level under a high level): each is drawn once, on the stage's own env, into
@@ -300,9 +301,9 @@ def _train_on(twin: Path, stage_dir: Path, cfg: dict, threads: int, command: str
 
 
 def _resolve_stage_refs(override: str, runs: dict[str, Path]) -> str:
-    key, sep, value = override.partition("=")
-    if not sep or not value.startswith(STAGE_REF):
+    if not stages.is_ref(override):
         return override
+    key, _, value = override.partition("=")
     stage = value[len(STAGE_REF) :]
     if stage not in runs:
         raise BadInput(f"override {override!r} refers to stage {stage!r}, not trained before it")

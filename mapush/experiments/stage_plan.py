@@ -21,8 +21,8 @@ def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
     """The stages to train, up to the evaluated one, each with every override it is composed with.
 
     Order: the method's common overrides, the experiment's (`overrides`, where it has them), the stage's, the job's
-    task / seed / agents / extra overrides, then the budget's num_envs (env-steps become `train.iterations` in
-    `train_stage`).
+    task / seed / agents / extra overrides, then the budget's num_envs (`planned_stages` turns the budget's
+    env-steps into `train.iterations`).
     """
     method, experiment = cfg.method, cfg.experiment
     names = list(method.stages)

@@ -63,7 +63,7 @@ def compose_stage(overrides: list[str], iterations_of) -> dict:
 
     Overrides that refer to an earlier stage (`key=@stage`) are left out here; `identity` adds them.
     """
-    cfg = compose_config([o for o in overrides if not _is_ref(o)])
+    cfg = compose_config([o for o in overrides if not is_ref(o)])
     OmegaConf.update(cfg, "train.iterations", iterations_of(cfg))
     return to_plain(cfg)
 
@@ -84,7 +84,7 @@ def identity(cfg: dict, overrides: list[str], identities: dict[str, str]) -> str
             if only_at is not None and not node and parent:  # a dict that held only the later key
                 grand, _, name = parent.rpartition(".")
                 (OmegaConf.select(view, grand) if grand else view).pop(name)
-    for override in filter(_is_ref, overrides):
+    for override in filter(is_ref, overrides):
         key, _, value = override.partition("=")
         OmegaConf.update(view, key, f"stage:{identities[value[len(STAGE_REF) :]]}", force_add=True)
     text = json.dumps(OmegaConf.to_container(view), sort_keys=True)
@@ -97,7 +97,7 @@ def shorter_twin(sweep_root: Path, cfg: dict, overrides: list[str], identities: 
     stage on from its end rather than from scratch. PPO here keeps no schedule over the planned iterations (its
     learning rate follows the KL), so a stage trained on is one trained longer, as a cut run resumed is the run."""
     want, iterations = _identity_less_budget(cfg, overrides, identities), int(cfg["train"]["iterations"])
-    refs = [(o.partition("=")[0], o.partition("=")[2][len(STAGE_REF) :]) for o in overrides if _is_ref(o)]
+    refs = [(o.partition("=")[0], o.partition("=")[2][len(STAGE_REF) :]) for o in overrides if is_ref(o)]
     found: tuple[int, Path] | None = None
     for record in sorted((Path(sweep_root) / STORE).glob(f"*/{IDENTITY_FILE}")):
         other = _record(record).get("config")
@@ -212,7 +212,7 @@ def cost_per_env_step(results: list, roots: list[Path]) -> dict[tuple, float]:
 
 def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:
     """Record what the stage is (`stage.yaml`: the identity and the composed config) beside its run; `origin`: where
-    a run made elsewhere came from (`adopted_from`, `trained_as_run`)."""
+    a run made elsewhere came from (`adopted_from`, `trained_as_run`, `lengthened_from`)."""
     Path(directory).mkdir(parents=True, exist_ok=True)
     write_yaml(Path(directory) / IDENTITY_FILE, stamp({"identity": key, "config": cfg, **origin}))
 
@@ -257,7 +257,8 @@ def held(directory: Path):
             fcntl.flock(lock, fcntl.LOCK_UN)
 
 
-def _is_ref(override: str) -> bool:
+def is_ref(override: str) -> bool:
+    """Whether `override` names an earlier stage of the job (`mid=@mid`), not a value."""
     return override.partition("=")[2].startswith(STAGE_REF)
 
 

@@ -34,7 +34,6 @@ from mapush.experiments import stages
 from mapush.experiments.archive import archived_result, load_results, twin_job
 from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
-from mapush.experiments.stages import STAGE_REF
 from mapush.experiments.staleness import result_changes
 from mapush.experiments.workers import SWEEP_PID, job_threads, stop_with_the_sweep
 
@@ -42,6 +41,8 @@ SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
 STAGE_GROUPS = ("task",)
 """Sweep groups that each stage composes again from the job's choice (`task=<name>`): a field of one
 (`task.object.friction=...`) goes to the stages, not to the sweep, or the stages would never see it."""
+NAMED_GROUPS = ("method", "experiment")
+"""Groups whose files repeat their name (`name:`), which files their jobs and cells: a copy must change it."""
 SWEEP_KEYS = (
     *SWEEP_GROUPS,
     "seed",
@@ -65,7 +66,8 @@ if not OmegaConf.has_resolver("cores"):
 
 @hydra.main(config_path=str(CONF_DIR), config_name="sweep", version_base="1.3")
 def job(cfg: DictConfig) -> str:
-    """One sweep job in its Hydra output dir; never raises, so that a failure leaves the other jobs running."""
+    """One sweep job in its Hydra output dir. A failure is written to `failed.txt` and the other jobs run on; only an
+    interrupt, or the sweep's own end, stops the worker."""
     from mapush.experiments.pipeline import run_job  # training's machinery (PyTorch): loaded where jobs run
 
     job_dir = Path(HydraConfig.get().runtime.output_dir)
@@ -92,23 +94,26 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     agent counts, stage overrides).
     """
     overrides = [_as_axis(o) for o in overrides]
-    stage = [o for o in overrides if not _is_sweep_key(o)]
-    overrides = [o for o in overrides if _is_sweep_key(o)]
+    listed = [o for o in overrides if o.startswith("overrides=")]  # stage overrides as a list: as if given bare
+    stage = [str(item) for o in listed for item in OverridesParser.create().parse_override(o).value()]
+    stage += [o for o in overrides if not _is_sweep_key(o)]
+    overrides = [o for o in overrides if _is_sweep_key(o) and o not in listed]
     searchpath = [o for o in overrides if _is_searchpath(o)]  # the sweep's and every stage's: tasks of yours
     if stage or searchpath:
-        if any(o.startswith("overrides=") for o in overrides):
-            raise BadInput(
-                f"give stage overrides either as overrides=[...] or bare, not both: {' '.join(stage + searchpath)}"
-            )
         overrides.append(every_stage_override(stage + searchpath))
         if stage and not any(o.startswith("sweep_name=") for o in overrides):  # keep them apart from the plain sweep
             overrides.append(f"sweep_name=${{experiment.name}}_${{budget}}_{overrides_name(stage)}")
     given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
-    given_axes, extra = _split_axes(overrides), search_dirs(searchpath)
-    for group in SWEEP_GROUPS:
+    given_axes = _split_axes(overrides)
+    for group in SWEEP_GROUPS:  # tasks may be yours (`hydra.searchpath`); methods and experiments are mapush's
+        options = group_options(group, search_dirs(searchpath) if group in STAGE_GROUPS else ())
         for value in given_axes.get(group, []):
-            if value not in group_options(group, extra):
-                raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(group_options(group, extra))}")
+            if value not in options:
+                raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(options)}")
+            if group in NAMED_GROUPS and group_file(group, value).name != value:  # a copy that kept its name
+                raise BadInput(
+                    f"{group}={value}: its file says name: {group_file(group, value).name}; valid: name: {value}"
+                )
     launcher = given.get("launcher", "local")
     _check_launcher_plugin(launcher)
     experiment = group_file("experiment", given.get("experiment", "main"))
@@ -194,7 +199,7 @@ def _check_jobs(overrides: list[str]) -> None:
     # the seed changes no stage's validity; the first seed's configs, composed here, are those a dry run plans next
     for combo in job_combos(overrides, seeds=False):
         for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):
-            key = tuple(o for o in stage_overrides if not o.partition("=")[2].startswith(STAGE_REF))
+            key = tuple(o for o in stage_overrides if not stages.is_ref(o))
             if key not in checked:
                 checked.add(key)
                 plain = to_plain(compose_config(list(key)))
@@ -242,7 +247,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
         for stage in planned:
             done = stages.trained_iterations(stages.stage_dir(Path(cfg.sweep_root), stage.identity))
             state = stages.status_of(done, stage.iterations)
-            twin = None if done or stage.identity in seen else \
+            twin = None if done != 0 or stage.identity in seen else \
                 stages.shorter_twin(Path(cfg.sweep_root), stage.cfg, stage.overrides, identities)  # fmt: skip
             if twin is not None:
                 done = int(load_run_config(twin).train.iterations)

@@ -35,6 +35,26 @@ def _identities(*overrides: str) -> dict[str, str]:
     return {stage.name: stage.identity for stage in planned_stages(cfg)}
 
 
+def test_stage_overrides_written_as_a_list_are_swept_as_if_given_bare():
+    # both spellings make one sweep dir apart from the plain sweep's, and give the stages the same overrides
+    bare = sweep_overrides(["method=sa", "task=cuboid", *SMOKE])
+    assert sweep_overrides(["method=sa", "task=cuboid", "budget=smoke", "overrides=['debug=smoke']"]) == bare
+    assert "overrides=['debug=smoke']" in bare and "sweep_name=${experiment.name}_${budget}_debug-smoke" in bare
+
+
+def test_a_method_file_copied_with_its_name_kept_is_refused(tmp_path, monkeypatch):
+    import shutil
+
+    from mapush import config
+
+    conf = tmp_path / "conf"
+    shutil.copytree(config.CONF_DIR, conf)
+    shutil.copy(conf / "method" / "ours.yaml", conf / "method" / "mine.yaml")  # still `name: ours`
+    monkeypatch.setattr(config, "CONF_DIR", conf)
+    with pytest.raises(BadInput, match=r"method=mine: its file says name: ours; valid: name: mine"):
+        sweep_overrides(["method=mine", "task=cuboid", *SMOKE])
+
+
 def test_equal_stage_configs_have_one_identity_whatever_the_job_that_composes_them():
     # SA's mid level of the cylinder is the scalability study's 1-robot mid level, composed from other overrides
     sa = compose_config(["experiment=main", "method=sa", "task=cylinder"], config_name="sweep")
@@ -323,6 +343,10 @@ def test_a_lengthened_budget_trains_the_shorter_stage_on_and_the_dry_run_says_so
     assert sorted(p.name for p in short.glob("model_*.pt")) == ["model_0.pt"] and (short / "policy.pt").is_file()
     # the lengthened stage's own curve reaches its end (the smoke curve's one mark, 800 env-steps, lies past it)
     assert [p["iteration"] for p in result["stage_curves"]["mid"]["points"]] == [2]
+    # its job's result gone, the dry run reuses the lengthened stage: finished, not one to train on again
+    next(root.glob(f"*/*mid.env_steps=96*/{RESULT}")).unlink()
+    again = _sweep(cli, root, "sweep", "--dry-run", *longer)
+    assert "0 to train" in again.stdout and "train on" not in again.stdout, again.stdout
 
 
 @pytest.mark.slow
