@@ -95,7 +95,8 @@ def rekey(old: Path, mid_run: str, overrides: list[str]) -> int:
             continue
         stage, root = planned[row["identity"]]
         source = stages.stage_dir(root, old_ids[key])
-        if stages.status(source, stage.iterations) == "new":
+        done = stages.trained_iterations(source)
+        if done == 0:
             continue
         target = stages.stage_dir(root, row["identity"])
         for run_dir in find_runs(source):
@@ -103,7 +104,8 @@ def rekey(old: Path, mid_run: str, overrides: list[str]) -> int:
         cfg = stages.compose_stage(stage.overrides, lambda c, n=stage.iterations: n)
         adopted_from = {"identity": old_ids[key], "commit": old_commit, "fingerprints": prints["new"]}
         stages.write_identity(target, cfg, row["identity"], adopted_from=adopted_from)
-        print(f"adopted {row['job']} {row['stage']} ({stages.status(source, stage.iterations)}): "
+        trained = "finished" if done is None else f"{done}/{stage.iterations} iterations"
+        print(f"adopted {row['job']} {row['stage']} ({trained}): "
               f"{old_ids[key]} -> {row['identity']}")  # fmt: skip
         adopted += 1
     print(f"{adopted} stages adopted from {old_commit} (fingerprints equal: {prints['new']})")

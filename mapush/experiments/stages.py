@@ -170,16 +170,6 @@ def trained_iterations(directory: Path) -> int | None:
     return 0
 
 
-def status(directory: Path, iterations: int) -> str:
-    """`finished`, `resume from N/M`, or `new`: what a sweep will do with the stage in `directory`."""
-    return status_of(trained_iterations(directory), iterations)
-
-
-def status_of(done: int | None, iterations: int) -> str:
-    """`status` of a stage that has trained `done` of its `iterations` (None: finished)."""
-    return "finished" if done is None else f"resume from {done}/{iterations}" if done else "new"
-
-
 def shape(cfg: dict) -> tuple:
     """What a stage's training time per env-step depends on: level, object, robots, envs and low level (not the
     seed, a reward weight or the budget). Stages of one shape cost alike per env-step (`cost_per_env_step`)."""

@@ -37,24 +37,17 @@ from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
 from mapush.experiments.staleness import result_changes
 from mapush.experiments.workers import SWEEP_PID, job_threads, stop_with_the_sweep
 
-SWEEP_GROUPS = ("method", "experiment", "launcher", "task")
+SWEEP_YAML = OmegaConf.to_container(OmegaConf.load(CONF_DIR / "sweep.yaml"))  # as written: interpolations kept
+DEFAULTS = {key: value for entry in SWEEP_YAML["defaults"] if entry != "_self_" for key, value in entry.items()}
+DEFAULTS |= {key: value for key, value in SWEEP_YAML.items() if key not in ("defaults", "hydra")}
+"""Every key of a sweep job (conf/sweep.yaml), the groups first, with its default (method: ours, budget: quick...)."""
+SWEEP_GROUPS = tuple(key for entry in SWEEP_YAML["defaults"] if entry != "_self_" for key in entry)
 STAGE_GROUPS = ("task",)
 """Sweep groups that each stage composes again from the job's choice (`task=<name>`): a field of one
 (`task.object.friction=...`) goes to the stages, not to the sweep, or the stages would never see it."""
 NAMED_GROUPS = ("method", "experiment")
 """Groups whose files repeat their name (`name:`), which files their jobs and cells: a copy must change it."""
-SWEEP_KEYS = (
-    *SWEEP_GROUPS,
-    "seed",
-    "agents",
-    "budget",
-    "overrides",
-    "sweep_root",
-    "sweep_name",
-    "job_threads",
-    "rerun_changed",
-    "archive",
-)
+SWEEP_KEYS = tuple(DEFAULTS)
 """Keys of conf/sweep.yaml; any other override (e.g. `debug=smoke`, `algo.entropy_coef=0.01`) goes to every stage."""
 FAILED = "failed.txt"
 OPTIONAL_LAUNCHERS = {"ray": ("hydra_plugins.hydra_ray_launcher", "hydra-ray-launcher: pip install -e .[ray]")}
@@ -114,10 +107,10 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
                 raise BadInput(
                     f"{group}={value}: its file says name: {group_file(group, value).name}; valid: name: {value}"
                 )
-    launcher = given.get("launcher", "local")
+    launcher = given.get("launcher", DEFAULTS["launcher"])
     _check_launcher_plugin(launcher)
-    experiment = group_file("experiment", given.get("experiment", "main"))
-    budget_name = given.get("budget", "quick")
+    experiment = group_file("experiment", given.get("experiment", DEFAULTS["experiment"]))
+    budget_name = given.get("budget", DEFAULTS["budget"])
     budget = budget_of(OmegaConf.create({"experiment": experiment, "budget": budget_name}))
     axes = {**{k: list(v) for k, v in experiment.sweep.items()}, "seed": list(budget.seeds)}
     full = list(overrides)
@@ -211,9 +204,9 @@ def dry_run(overrides: list[str]) -> list[dict]:
 
     Finished jobs are left out (those whose experiment changed since are listed; see `rerun_changed`), and so are
     jobs another sweep's job made already (`archive.twin_job`), whose results the sweep takes. Each row of
-    the others: job, stage, identity, what happens (`train`, `resume from N/M`, `reuse` a finished stage, or `share`
-    a stage an earlier job of this sweep trains, or `train on N/M` a finished stage that is this one with a shorter
-    budget, `stages.shorter_twin`) and the stage's env-steps.
+    the others: job, stage, identity, `action` (`train`, `resume` from `done` of its `iterations`, `reuse` a finished
+    stage, `share` a stage an earlier job of this sweep trains, or `train_on` from `done` iterations of a finished
+    stage that is this one with a shorter budget, `stages.shorter_twin`) and the stage's env-steps.
     """
     full = sweep_overrides(overrides)
     combos = job_combos(full)
@@ -246,19 +239,18 @@ def dry_run(overrides: list[str]) -> list[dict]:
         identities = {stage.name: stage.identity for stage in planned}
         for stage in planned:
             done = stages.trained_iterations(stages.stage_dir(Path(cfg.sweep_root), stage.identity))
-            state = stages.status_of(done, stage.iterations)
-            twin = None if done != 0 or stage.identity in seen else \
+            action = "share" if stage.identity in seen else "reuse" if done is None else "resume" if done else "train"
+            twin = None if action != "train" else \
                 stages.shorter_twin(Path(cfg.sweep_root), stage.cfg, stage.overrides, identities)  # fmt: skip
             if twin is not None:
-                done = int(load_run_config(twin).train.iterations)
-                state = f"train on {done}/{stage.iterations}"
-            action = "share" if stage.identity in seen else {"finished": "reuse", "new": "train"}.get(state, state)
-            left = 0.0 if done is None or action == "share" else stage.env_steps * (1 - done / stage.iterations)
+                action, done = "train_on", int(load_run_config(twin).train.iterations)
+            left = 0.0 if action in ("share", "reuse") else stage.env_steps * (1 - done / stage.iterations)
             rate = rates.get(stage.shape)
             seen.add(stage.identity)
-            rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action,
-                         "env_steps": stage.env_steps, "core_s": None if rate is None else rate * left})  # fmt: skip
-    to_train = [r for r in rows if r["action"] == "train" or r["action"].startswith(("resume", "train on"))]
+            rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action, "done": done,
+                         "iterations": stage.iterations, "env_steps": stage.env_steps,
+                         "core_s": None if rate is None else rate * left})  # fmt: skip
+    to_train = [r for r in rows if r["action"] in TRAINS]
     made = f" ({taken} made already by other sweeps' jobs, their results to be taken)" if taken else ""
     print(f"sweep {hydra_cfg.sweep.dir}: {len(combos)} jobs, {finished} finished{made}; {len(rows)} stages to run; "
           f"{len(to_train)} to train ({sum(r['env_steps'] for r in to_train) / 1e6:.1f}M env-steps), "
@@ -277,9 +269,19 @@ def dry_run(overrides: list[str]) -> list[dict]:
     for r in rows:
         hours = "" if r["action"] in ("reuse", "share") else "  no measured stage like it" if r["core_s"] is None \
             else f"  ~{r['core_s'] / 3600:.2f} core-h"  # fmt: skip
-        print(f"  {r['job']:{width}s}  {r['stage']:5s} {r['identity']}  {r['action']:18s} "
+        print(f"  {r['job']:{width}s}  {r['stage']:5s} {r['identity']}  {_action_text(r):18s} "
               f"{r['env_steps'] / 1e6:8.2f}M env-steps{hours}")  # fmt: skip
     return rows
+
+
+TRAINS = ("train", "resume", "train_on")
+"""A dry run's actions that train: from scratch, from the stage's last checkpoint, on from a shorter twin."""
+
+
+def _action_text(row: dict) -> str:
+    return {"resume": "resume from", "train_on": "train on"}.get(row["action"], row["action"]) + (
+        f" {row['done']}/{row['iterations']}" if row["action"] in ("resume", "train_on") else ""
+    )
 
 
 def _roots(cfg: DictConfig) -> list[Path]:
