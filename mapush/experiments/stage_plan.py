@@ -17,7 +17,7 @@ STAGE_BUDGET_KEYS = ("num_envs", "env_steps")
 """What a budget sets for each stage (and what a stage's `by_task` entry may set for one task)."""
 
 
-def stage_plan(cfg: DictConfig) -> list[tuple[str, list[str]]]:
+def stages_with_overrides(cfg: DictConfig) -> list[tuple[str, list[str]]]:
     """The stages to train, up to the evaluated one, each with every override it is composed with.
 
     Order: the method's common overrides, the experiment's (`overrides`, where it has them), the stage's, the job's
@@ -162,7 +162,7 @@ def planned_stages(cfg: DictConfig) -> list[PlannedStage]:
     budget = budget_of(cfg)
     identities: dict[str, str] = {}
     planned = []
-    for name, overrides in stage_plan(cfg):
+    for name, overrides in stages_with_overrides(cfg):
         env_steps = float(stage_budget(cfg, name).env_steps)
         stage_cfg = stages.compose_stage(overrides, lambda c, s=env_steps: iterations_for(c, s))
         identities[name] = stages.identity(stage_cfg, overrides, identities)

@@ -33,7 +33,7 @@ from mapush.errors import BadInput, first_line
 from mapush.experiments import stages
 from mapush.experiments.archive import archived_result, load_results, twin_job
 from mapush.experiments.results import RESULT, every_stage_override, read_result
-from mapush.experiments.stage_plan import budget_of, planned_stages, stage_plan
+from mapush.experiments.stage_plan import budget_of, planned_stages, stages_with_overrides
 from mapush.experiments.staleness import result_changes
 from mapush.experiments.workers import SWEEP_PID, job_threads, stop_with_the_sweep
 
@@ -191,7 +191,7 @@ def _check_jobs(overrides: list[str]) -> None:
     checked: set[tuple[str, ...]] = set()
     # the seed changes no stage's validity; the first seed's configs, composed here, are those a dry run plans next
     for combo in job_combos(overrides, seeds=False):
-        for _, stage_overrides in stage_plan(compose_config(combo, config_name="sweep")):
+        for _, stage_overrides in stages_with_overrides(compose_config(combo, config_name="sweep")):
             key = tuple(o for o in stage_overrides if not stages.is_ref(o))
             if key not in checked:
                 checked.add(key)

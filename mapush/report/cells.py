@@ -6,12 +6,16 @@ from pathlib import Path
 
 import yaml
 
+from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.formats import Cell
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
-"""The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours."""
+"""The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; each table's `labels`
+are its methods' own (`label` in `conf/method/`)."""
+for _table in ("main", "ocb_ablation"):
+    PAPER[_table]["labels"] = {m: str(group_file("method", m).label) for m in PAPER[_table]["methods"]}
 
 
 SIGNIFICANT = 6

@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 
 from mapush.config import group_options
 from mapush.experiments.results import RESULT
-from mapush.experiments.stage_plan import iterations_for, stage_plan
+from mapush.experiments.stage_plan import iterations_for, stages_with_overrides
 from mapush.experiments.workers import GRACE_S
 from mapush.logging.mcap_files import THREADS_TAG, summary, training_scalars
 from mapush.report.cells import PAPER
@@ -179,7 +179,7 @@ def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for)
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose(config_name="sweep", overrides=["experiment=ocb_ablation", "method=sa", "task=ocb_cuboid"])
-    plan = stage_plan(cfg)
+    plan = stages_with_overrides(cfg)
     assert [name for name, _ in plan] == ["mid"]  # the ablation evaluates the mid level
     assert plan[0][1][:2] == ["task.num_agents=1", "level=mid"]
     assert "num_envs=500" in plan[0][1]  # the quick budget's envs
@@ -198,7 +198,7 @@ def test_an_experiments_own_overrides_reach_every_stage_and_its_evaluations_set_
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose(config_name="sweep", overrides=["experiment=team", "task=cylinder", "agents=4"])
-    plan = stage_plan(cfg)
+    plan = stages_with_overrides(cfg)
     assert [name for name, _ in plan] == ["mid"]  # the team study stops at the mid level
     assert all(o in plan[0][1] for o in cfg.experiment.overrides) and "task.num_agents=4" in plan[0][1]
     assert any(o.startswith("task.object.mass_range=") for o in cfg.experiment.overrides)  # trained over a range
@@ -240,7 +240,7 @@ def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_tr
     OmegaConf.update(ablation, "experiment.evals.bad", {"stage": "high", "overrides": []}, force_add=True)
     with pytest.raises(BadInput, match="evaluation 'bad' runs stage 'high', which its 'ours' jobs do not train "
                                        r"\(they stop at 'mid'\); valid stages: mid"):  # fmt: skip
-        stage_plan(ablation)
+        stages_with_overrides(ablation)
 
 
 # ---------------------------------------------------------------------------------------------------------------
