@@ -61,10 +61,12 @@ def search_dirs(overrides: list[str]) -> list[Path]:
     file at `<dir>/task/NAME.yaml`): `file://` paths, plain paths and `pkg://` packages (an installed plugin)."""
     dirs = []
     for override in overrides:
-        key, sep, _ = override.lstrip("+").partition("=")
+        key, sep, _ = override.partition("=")
+        if key != "hydra.searchpath" and key.lstrip("+~") == "hydra.searchpath":  # Hydra reads only that spelling
+            raise BadInput(f"{override!r} is not read by Hydra; valid: hydra.searchpath=[file:///DIR]")
         if not sep or key != "hydra.searchpath":
             continue
-        parsed = OverridesParser.create().parse_override(override.lstrip("+")).value()
+        parsed = OverridesParser.create().parse_override(override).value()
         for entry in parsed if isinstance(parsed, list) else [parsed]:
             scheme, _, where = str(entry).rpartition("://")
             if scheme == "pkg":
@@ -143,11 +145,9 @@ from: a sweep plans each stage more than once, and Hydra reads every file anew e
 
 def _files_stamp(extra_dirs: list[Path]) -> tuple:
     """Every config file's path, size and modification time: a composed config stands while this is the same."""
-    entries = []
-    for path in sorted(p for d in (CONF_DIR, *extra_dirs) for p in Path(d).rglob("*.yaml")):
-        status = path.stat()
-        entries.append((str(path), status.st_size, status.st_mtime_ns))
-    return tuple(entries)
+    paths = sorted(p for d in (CONF_DIR, *extra_dirs) for p in Path(d).rglob("*.yaml"))
+    stats = [p.stat() for p in paths]
+    return tuple((str(p), s.st_size, s.st_mtime_ns) for p, s in zip(paths, stats, strict=True))
 
 
 def _run_dir_override(override: str) -> str:

@@ -86,11 +86,10 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     launches: group names (method, experiment, launcher), the budget, and that each job's stages compose (tasks,
     agent counts, stage overrides).
     """
-    overrides = [_as_axis(o) for o in overrides]
     listed = [o for o in overrides if o.startswith("overrides=")]  # stage overrides as a list: as if given bare
-    stage = [str(item) for o in listed for item in OverridesParser.create().parse_override(o).value()]
-    stage += [o for o in overrides if not _is_sweep_key(o)]
-    overrides = [o for o in overrides if _is_sweep_key(o) and o not in listed]
+    overrides = [_as_axis(o) for o in [*(o for o in overrides if o not in listed), *_list_items(listed)]]
+    stage = [o for o in overrides if not _is_sweep_key(o)]
+    overrides = [o for o in overrides if _is_sweep_key(o)]
     searchpath = [o for o in overrides if _is_searchpath(o)]  # the sweep's and every stage's: tasks of yours
     if stage or searchpath:
         overrides.append(every_stage_override(stage + searchpath))
@@ -99,7 +98,7 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     given = {o.partition("=")[0]: o.partition("=")[2] for o in overrides if "=" in o}
     given_axes = _split_axes(overrides)
     for group in SWEEP_GROUPS:  # tasks may be yours (`hydra.searchpath`); methods and experiments are mapush's
-        options = group_options(group, search_dirs(searchpath) if group in STAGE_GROUPS else ())
+        options = group_options(group, search_dirs(overrides) if group in STAGE_GROUPS else ())
         for value in given_axes.get(group, []):
             if value not in options:
                 raise BadInput(f"unknown {group} {value!r}; valid: {', '.join(options)}")
@@ -130,8 +129,19 @@ def _as_axis(override: str) -> str:
     return f"{AXIS_ALIASES[key]}={value}" if sep and key in AXIS_ALIASES else override
 
 
+def _list_items(listed: list[str]) -> list[str]:
+    """The items of `overrides=[...]` overrides, each one override."""
+    items = []
+    for text in listed:
+        try:
+            items += [str(item) for item in OverridesParser.create().parse_override(text).value()]
+        except Exception as err:  # Hydra's grammar errors: the user's typing
+            raise BadInput(f"bad override {text!r} ({first_line(err)}); valid: overrides=['key=value',...]") from None
+    return items
+
+
 def _is_searchpath(override: str) -> bool:
-    return override.lstrip("+").partition("=")[0] == "hydra.searchpath"
+    return override.partition("=")[0] == "hydra.searchpath"
 
 
 def _is_sweep_key(override: str) -> bool:
@@ -156,7 +166,8 @@ def _split_axes(overrides: list[str]) -> dict[str, list[str]]:
         if isinstance(value, Glob):
             if override.key_or_group not in SWEEP_GROUPS:
                 raise BadInput(f"glob() in {text!r} picks files of a group; valid: {', '.join(SWEEP_GROUPS)}")
-            axes[key] = value.filter(group_options(override.key_or_group))
+            extra = search_dirs([o for o in overrides if _is_searchpath(o)]) if key in STAGE_GROUPS else ()
+            axes[key] = value.filter(group_options(override.key_or_group, extra))
         elif override.is_sweep_override():
             axes[key] = list(override.sweep_string_iterator())
         else:

@@ -28,6 +28,11 @@ def matching(results: list[JobResult], **match) -> list[JobResult]:
     return [r for r in results if all(getattr(r, k) == v for k, v in match.items())]
 
 
+def searchpaths(results: list[JobResult]) -> list[str]:
+    """The `hydra.searchpath` overrides the jobs of `results` composed their stages with (to find a task of yours)."""
+    return sorted({o for r in results for o in r.overrides if o.startswith("hydra.searchpath=")})
+
+
 def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cell:
     """The cell of the results that match (key: value or eval name), for one metric of one evaluation."""
     eval_name = match.pop("eval")

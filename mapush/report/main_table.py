@@ -10,7 +10,7 @@ from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import plots
-from mapush.report.cells import PAPER, collect, matching
+from mapush.report.cells import PAPER, collect, matching, searchpaths
 from mapush.report.formats import Finding, Table
 from mapush.report.physics import team_needed
 
@@ -130,7 +130,8 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
     if sr.get("sa"):
         sa = float(np.mean(sr["sa"]))
         verdict = "below" if sa < mean else "at or above"
-        text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {team_needed(task)}"
+        found_at = searchpaths(matching(mine, task=task))  # a task of yours: where its jobs found it
+        text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {team_needed(task, found_at)}"
         lines.append(Finding(text, sa < mean, {"sa_sr": sa, "ours_sr": mean}))
     scripted = collect(mine, "success_rate", 100.0, method="hl", task=task, eval="path_only").values
     for method in ("hl", "hl_ft"):

@@ -40,19 +40,31 @@ def test_a_task_from_a_directory_of_yours_trains_and_evaluates(cli, tmp_path):
 @pytest.mark.slow
 def test_a_task_from_a_directory_of_yours_is_swept_and_its_dry_run_names_it(cli, tmp_path):
     mine = _my_task(tmp_path / "my_configs")
-    sweep = ["sweep", "experiment=main", "method=ours", "task=long_box", f"hydra.searchpath=[file://{mine}]"]
+    sweep = ["sweep", "experiment=main", "method=ours,sa", "task=long_box", f"hydra.searchpath=[file://{mine}]"]
     sweep += ["budget=smoke", "debug=smoke", f"sweep_root={tmp_path / 'sweeps'}"]
     planned = cli(*sweep, "--dry-run")
     assert planned.returncode == 0, planned.stderr
-    assert "1 jobs, 0 finished" in planned.stdout and "method=ours,seed=0,task=long_box  mid" in planned.stdout
+    assert "2 jobs, 0 finished" in planned.stdout and "method=ours,seed=0,task=long_box  mid" in planned.stdout
     proc = cli(*sweep)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    (result,) = (tmp_path / "sweeps").glob("main_smoke_debug-smoke/*/result.json")
-    assert result.parent.name == "method=ours,seed=0,task=long_box"  # named as any job, the searchpath left out
-    for run_dir in json.loads(result.read_text())["stages"].values():
+    results = sorted((tmp_path / "sweeps").glob("main_smoke_debug-smoke/*/result.json"))
+    # named as any job, the searchpath left out
+    assert [r.parent.name for r in results] == [f"method={m},seed=0,task=long_box" for m in ("ours", "sa")]
+    for run_dir in json.loads(results[0].read_text())["stages"].values():
         assert OmegaConf.load(Path(run_dir) / "config.yaml").task.object.parts[0].size[0] == 2.0
+    tables = cli("tables", "--runs", tmp_path / "sweeps", "--table", "main", "--out", tmp_path / "tables")
+    assert tables.returncode == 0, tables.stderr  # the SA finding composes the task: its jobs say where it is
+    assert "long_box: SA" in (tmp_path / "tables" / "main_smoke_debug-smoke.md").read_text()
     unknown = cli("sweep", "experiment=main", "task=long_box", "budget=smoke", f"sweep_root={tmp_path / 's2'}")
     assert_bad_input(unknown, "unknown task 'long_box'", "valid: cuboid")
+
+
+def test_a_searchpath_hydra_does_not_read_is_refused(cli, tmp_path):
+    mine = _my_task(tmp_path / "my_configs")
+    for command in ("train", "sweep"):
+        proc = cli(command, f"+hydra.searchpath=[file://{mine}]", "task=long_box", f"train.run_root={tmp_path / 'r'}")
+        assert_bad_input(proc, "+hydra.searchpath", "valid: hydra.searchpath=[file:///DIR]")
+    assert not (tmp_path / "r").exists()
 
 
 def test_without_the_searchpath_the_task_is_unknown_and_the_message_says_how(cli, tmp_path):

@@ -40,6 +40,12 @@ def test_stage_overrides_written_as_a_list_are_swept_as_if_given_bare():
     bare = sweep_overrides(["method=sa", "task=cuboid", *SMOKE])
     assert sweep_overrides(["method=sa", "task=cuboid", "budget=smoke", "overrides=['debug=smoke']"]) == bare
     assert "overrides=['debug=smoke']" in bare and "sweep_name=${experiment.name}_${budget}_debug-smoke" in bare
+    # a robot count in the list is the sweep's axis, as it is given bare
+    listed = sweep_overrides(["method=sa", "task=cylinder", "budget=smoke", "overrides=['task.num_agents=2']"])
+    assert listed == sweep_overrides(["method=sa", "task=cylinder", "budget=smoke", "task.num_agents=2"])
+    assert "agents=2" in listed and not any(o.startswith("overrides=") for o in listed)
+    with pytest.raises(BadInput, match=r"bad override 'overrides=\[debug=smoke\]' .*valid: overrides=\['key=value'"):
+        sweep_overrides(["method=sa", "task=cuboid", "overrides=[debug=smoke]"])
 
 
 def test_a_method_file_copied_with_its_name_kept_is_refused(tmp_path, monkeypatch):
