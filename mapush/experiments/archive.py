@@ -125,6 +125,11 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     return None if result_changes(read_result(path), cfg, planned, archive) else path
 
 
+def result_roots(cfg: DictConfig) -> list[Path]:
+    """Where a sweep job's finished results and stages are found: the sweep root, and the archive where one is set."""
+    return [Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])]
+
+
 def twin_job(
     cfg: DictConfig, job_dir: Path, planned: list[PlannedStage], finished: list[JobResult] | None = None
 ) -> tuple[JobResult, dict, dict | None] | None:
@@ -136,7 +141,7 @@ def twin_job(
     the cylinder. The first such job found in sweep order counts. `finished`: the results under those roots, when
     the caller has read them already (`load_results`)."""
     if finished is None:
-        finished = load_results([Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])])
+        finished = load_results(result_roots(cfg))
     own = (Path(job_dir).parent.name, Path(job_dir).name)
     budget = budget_of(cfg)
     asked = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))

@@ -31,7 +31,7 @@ from mapush.config import (
 )
 from mapush.errors import BadInput, first_line
 from mapush.experiments import stages
-from mapush.experiments.archive import archived_result, load_results, twin_job
+from mapush.experiments.archive import archived_result, load_results, result_roots, twin_job
 from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stages_with_overrides
 from mapush.experiments.staleness import result_changes
@@ -224,7 +224,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
     hydra_cfg = compose_config(combos[0], config_name="sweep", hydra=True).hydra
     unnamed = set(hydra_cfg.job.config.override_dirname.exclude_keys)  # keys the job dirs' names leave out
     rows, seen, changed, finished, taken = [], set(), [], 0, 0
-    roots = _roots(compose_config(combos[0], config_name="sweep"))
+    roots = result_roots(compose_config(combos[0], config_name="sweep"))
     finished_results = load_results(roots)
     rates = stages.cost_per_env_step(finished_results, roots)
     for combo in combos:
@@ -290,14 +290,8 @@ TRAINS = ("train", "resume", "train_on")
 
 
 def _action_text(row: dict) -> str:
-    return {"resume": "resume from", "train_on": "train on"}.get(row["action"], row["action"]) + (
-        f" {row['done']}/{row['iterations']}" if row["action"] in ("resume", "train_on") else ""
-    )
-
-
-def _roots(cfg: DictConfig) -> list[Path]:
-    """The sweep root and the archive (where one is set): where finished stages and their times are found."""
-    return [Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])]
+    done = f" {row['done']}/{row['iterations']}" if row["action"] in ("resume", "train_on") else ""
+    return {"resume": "resume from", "train_on": "train on"}.get(row["action"], row["action"]) + done
 
 
 def _estimate_line(to_train: list[dict]) -> str:
