@@ -130,7 +130,7 @@ def result_roots(cfg: DictConfig) -> list[Path]:
     return [Path(cfg.sweep_root), *([Path(cfg.archive)] if cfg.get("archive") else [])]
 
 
-def twin_job(
+def job_made_already(
     cfg: DictConfig, job_dir: Path, planned: list[PlannedStage], finished: list[JobResult] | None = None
 ) -> tuple[JobResult, dict, dict | None] | None:
     """A finished job of another sweep, under the sweep root or in the archive, that made what this job would make:

@@ -32,7 +32,7 @@ from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
-from mapush.experiments.archive import archived_result, twin_job
+from mapush.experiments.archive import archived_result, job_made_already
 from mapush.experiments.results import (
     RESULT,
     SUPERSEDED,
@@ -88,10 +88,10 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
     if archived is not None:  # finished on another machine
         print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
         return read_result(archived)
-    twin = None if done.is_file() else twin_job(cfg, job_dir, planned)
-    if twin is not None:  # another sweep's job made all this one would
-        print(f"mapush: {job_dir.name}: made already as {twin[0].job_dir}; its result taken, nothing trained")
-        return write_result(done, _taken(cfg, job_dir, *twin))
+    made = None if done.is_file() else job_made_already(cfg, job_dir, planned)
+    if made is not None:  # another sweep's job made all this one would
+        print(f"mapush: {job_dir.name}: made already as {made[0].job_dir}; its result taken, nothing trained")
+        return write_result(done, _taken(cfg, job_dir, *made))
     if done.is_file():
         result = read_result(done)
         changed = result_changes(result, cfg, planned)
@@ -168,24 +168,24 @@ def _job_result(cfg: DictConfig, job_dir: Path, **made) -> JobResult:
     )
 
 
-def _taken(cfg: DictConfig, job_dir: Path, twin: JobResult, evals: dict, curve: dict | None) -> JobResult:
-    """This job's result from another sweep's job that made it (`archive.twin_job`): its stages and their training
-    time, the evaluations and curves this job asks for; no evaluation time, as this job evaluated nothing (the
-    other job's result counts it)."""
-    runs = {name: Path(run) for name, run in twin.stages.items()}
+def _taken(cfg: DictConfig, job_dir: Path, other: JobResult, evals: dict, curve: dict | None) -> JobResult:
+    """This job's result from `other`, another sweep's job that made it (`archive.job_made_already`): its stages and
+    their training time, the evaluations and curves this job asks for; no evaluation time, as this job evaluated
+    nothing (the other job's result counts it)."""
+    runs = {name: Path(run) for name, run in other.stages.items()}
     return _job_result(
         cfg,
         job_dir,
-        num_agents=twin.num_agents,
-        stages=dict(twin.stages),
-        stage_core_s=dict(twin.stage_core_s),
+        num_agents=other.num_agents,
+        stages=dict(other.stages),
+        stage_core_s=dict(other.stage_core_s),
         evals=evals,
         curve=curve,
-        stage_curves=stage_curves(cfg, runs, twin.stage_curves),
+        stage_curves=stage_curves(cfg, runs, other.stage_curves),
         eval_wall_s=0.0,
-        threads=twin.threads,
-        machine_cores=twin.machine_cores,
-        taken_from=twin.job_dir,
+        threads=other.threads,
+        machine_cores=other.machine_cores,
+        taken_from=other.job_dir,
     )
 
 

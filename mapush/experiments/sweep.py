@@ -31,7 +31,7 @@ from mapush.config import (
 )
 from mapush.errors import BadInput, first_line
 from mapush.experiments import stages
-from mapush.experiments.archive import archived_result, load_results, result_roots, twin_job
+from mapush.experiments.archive import archived_result, job_made_already, load_results, result_roots
 from mapush.experiments.results import RESULT, every_stage_override, read_result
 from mapush.experiments.stage_plan import budget_of, planned_stages, stages_with_overrides
 from mapush.experiments.staleness import result_changes
@@ -214,7 +214,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
     """What `run_sweep(overrides)` would train and reuse, job by job, training nothing; printed and returned.
 
     Finished jobs are left out (those whose experiment changed since are listed; see `rerun_changed`), and so are
-    jobs another sweep's job made already (`archive.twin_job`), whose results the sweep takes. Each row of
+    jobs another sweep's job made already (`archive.job_made_already`), whose results the sweep takes. Each row of
     the others: job, stage, identity, `action` (`train`, `resume` from `done` of its `iterations`, `reuse` a finished
     stage, `share` a stage an earlier job of this sweep trains, or `train_on` from `done` iterations of a finished
     stage that is this one with a shorter budget, `stages.shorter_twin`) and the stage's env-steps.
@@ -236,7 +236,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
         if not result.is_file() and archived_result(cfg, result.parent, planned) is not None:
             finished += 1  # finished on another machine, and archived (`mapush archive`)
             continue
-        if not result.is_file() and twin_job(cfg, result.parent, planned, finished_results) is not None:
+        if not result.is_file() and job_made_already(cfg, result.parent, planned, finished_results) is not None:
             finished, taken = finished + 1, taken + 1  # made already by another sweep's job
             continue
         if result.is_file():

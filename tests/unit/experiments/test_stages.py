@@ -499,7 +499,7 @@ def test_a_job_another_sweep_made_already_is_its_twin_until_an_evaluation_or_cur
 
     def twin(record: dict):
         donor.write_text(json.dumps(record))
-        return archive.twin_job(scale, job, planned_stages(scale))
+        return archive.job_made_already(scale, job, planned_stages(scale))
 
     found, evals, curve = twin(made)
     assert Path(found.job_dir) == donor.parent and sorted(evals) == ["main"]  # the study asks for no legged eval
@@ -514,7 +514,7 @@ def test_a_job_another_sweep_made_already_is_its_twin_until_an_evaluation_or_cur
     own.parent.mkdir(parents=True)
     donor.unlink()
     own.write_text(json.dumps(made))
-    assert archive.twin_job(scale, job, planned_stages(scale)) is None
+    assert archive.job_made_already(scale, job, planned_stages(scale)) is None
 
 
 def test_a_job_refuses_code_older_than_the_package_files_and_trains_nothing(tmp_path, monkeypatch):
