@@ -54,7 +54,7 @@ def test_a_task_from_a_directory_of_yours_is_swept_and_its_dry_run_names_it(cli,
         assert OmegaConf.load(Path(run_dir) / "config.yaml").task.object.parts[0].size[0] == 2.0
     tables = cli("tables", "--runs", tmp_path / "sweeps", "--table", "main", "--out", tmp_path / "tables")
     assert tables.returncode == 0, tables.stderr  # the SA finding composes the task: its jobs say where it is
-    assert "long_box: SA" in (tmp_path / "tables" / "main_smoke_debug-smoke.md").read_text()
+    assert "long_box: SA" in (tmp_path / "tables" / "main_smoke_debug-smoke").with_suffix(".md").read_text()
     unknown = cli("sweep", "experiment=main", "task=long_box", "budget=smoke", f"sweep_root={tmp_path / 's2'}")
     assert_bad_input(unknown, "unknown task 'long_box'", "valid: cuboid")
 
