@@ -34,6 +34,7 @@ from mapush.experiments.results import (
     every_stage_override,
     read_result,
     recorded_stage_seconds,
+    searchpath_overrides,
     write_result,
 )
 from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, planned_stages, stage_curve_specs
@@ -230,7 +231,7 @@ def made_otherwise(result: JobResult) -> Change | None:
         return None
     axes = [axis for axis in job_dir.name.split(",") if "=" in axis]
     extra = [every_stage_override(result.overrides)] if result.overrides else []
-    extra += [o for o in result.overrides if o.startswith("hydra.searchpath=")]  # the sweep's too: a task of yours
+    extra += searchpath_overrides(result.overrides)  # the sweep's too: a task of yours
     try:
         cfg = compose_config(
             [f"experiment={result.experiment}", f"budget={result.budget}", *axes, *extra], config_name="sweep"

@@ -138,6 +138,11 @@ def write_result(path: Path, result: JobResult) -> JobResult:
     return result
 
 
+def searchpath_overrides(overrides: list[str]) -> list[str]:
+    """The `hydra.searchpath=...` overrides among a job's stage overrides: where a task of yours was found."""
+    return [o for o in overrides if o.startswith("hydra.searchpath=")]
+
+
 def every_stage_override(overrides: list[str]) -> str:
     """A sweep job's `overrides` (extra overrides for every stage) as one Hydra override: `overrides=['a=1','b=2']`."""
     return "overrides=[" + ",".join(repr(o) for o in overrides) + "]"

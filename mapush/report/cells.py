@@ -7,7 +7,7 @@ from pathlib import Path
 import yaml
 
 from mapush.config import group_file
-from mapush.experiments.results import JobResult
+from mapush.experiments.results import JobResult, searchpath_overrides
 from mapush.report import plots
 from mapush.report.formats import Cell
 
@@ -30,7 +30,7 @@ def matching(results: list[JobResult], **match) -> list[JobResult]:
 
 def searchpaths(results: list[JobResult]) -> list[str]:
     """The `hydra.searchpath` overrides the jobs of `results` composed their stages with (to find a task of yours)."""
-    return sorted({o for r in results for o in r.overrides if o.startswith("hydra.searchpath=")})
+    return sorted({o for r in results for o in searchpath_overrides(r.overrides)})
 
 
 def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cell:
