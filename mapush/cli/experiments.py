@@ -94,6 +94,7 @@ def _sweep(overrides: list[str], dry_run: bool = False, stop: bool = True) -> in
     from mapush.experiments.sweep import dry_run as print_plan
     from mapush.experiments.sweep import report, run_sweep
 
+    _check_table(overrides)
     if dry_run:
         print_plan(overrides)
         return 0
@@ -102,6 +103,21 @@ def _sweep(overrides: list[str], dry_run: bool = False, stop: bool = True) -> in
     if code and stop:
         raise typer.Exit(code)
     return code
+
+
+def _check_table(overrides: list[str]) -> None:
+    """Refuse an experiment whose `table:` no builder of `mapush tables` draws: it would train for hours unseen."""
+    from mapush import config
+    from mapush.experiments.sweep import DEFAULTS
+    from mapush.report.tables import BUILDERS
+
+    given = [o.partition("=")[2] for o in overrides if o.partition("=")[0] == "experiment"]
+    name = given[-1] if given else DEFAULTS["experiment"]
+    if not (config.CONF_DIR / "experiment" / f"{name}.yaml").exists():
+        return  # the sweep's own checks name the valid experiments
+    table = config.group_file("experiment", name).get("table")
+    if table not in BUILDERS:
+        raise BadInput(f"experiment={name}: its file says table: {table}; valid: {', '.join(BUILDERS)}")
 
 
 @app.command()
@@ -113,7 +129,7 @@ def tables(
         "archive results/jobs, where each exists.",
     ),
     out: Path = typer.Option(Path("results"), "--out", help="Where to write the tables."),
-    only: list[str] = typer.Option([], "--table", help="Write only these tables (main, ocb_ablation, scale)."),
+    only: list[str] = typer.Option([], "--table", help="Write only these tables (main, ocb_ablation, scale, team)."),
     overwrite: bool = typer.Option(
         False, "--overwrite", help="Replace a table in --out even where it has more filled cells than these runs give."
     ),

@@ -45,9 +45,9 @@ ARCHIVE = Path("results/jobs")
 """Where `mapush archive` writes and `mapush tables` also reads, relative to the working directory."""
 
 
-def job_key(result_file: Path) -> tuple[str, str]:
-    """A job's name wherever its result lies: (sweep dir, job dir), e.g. ("main_quick", "method=ours,seed=0,...")."""
-    return result_file.parent.parent.name, result_file.parent.name
+def job_key(job_dir: Path | str) -> tuple[str, str]:
+    """A job's name wherever it lies: (sweep dir, job dir), e.g. ("main_quick", "method=ours,seed=0,...")."""
+    return Path(job_dir).parent.name, Path(job_dir).name
 
 
 def _result_files(root: Path, skip: list[Path]) -> list[Path]:
@@ -67,7 +67,7 @@ def archive_results(runs: Path, out: Path = ARCHIVE) -> tuple[list[Path], int]:
     for path in _result_files(runs, skip=[Path(out)]):
         result = read_result(path)
         runs_of = dict(zip(result.stages, result.stage_runs(), strict=True))
-        target = Path(out).joinpath(*job_key(path), path.name)
+        target = Path(out).joinpath(*job_key(path.parent), path.name)
         archived = read_result(target) if target.is_file() else None
         earlier = archived.stage_core_s if archived else {}
         result.stage_core_s = {**earlier, **result.stage_core_s, **recorded_stage_seconds(runs_of)}
@@ -108,7 +108,7 @@ def load_results(roots: list[Path]) -> list[JobResult]:
             if path.name != RESULT:
                 continue
             result = read_result(path)
-            key = job_key(path)
+            key = job_key(path.parent)
             if key not in chosen or result.finished > chosen[key].finished:
                 chosen[key] = result
     return [chosen[key] for key in sorted(chosen)]
@@ -120,7 +120,7 @@ def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage])
     if not cfg.get("archive"):
         return None
     archive = Path(cfg.archive)
-    path = archive / Path(job_dir).parent.name / Path(job_dir).name / RESULT
+    path = archive.joinpath(*job_key(job_dir), RESULT)
     if not path.is_file():
         return None
     return None if result_changes(read_result(path), cfg, planned, archive) else path
@@ -143,14 +143,14 @@ def job_made_already(
     the caller has read them already (`load_results`)."""
     if finished is None:
         finished = load_results(result_roots(cfg))
-    own = (Path(job_dir).parent.name, Path(job_dir).name)
+    own = job_key(job_dir)
     budget = budget_of(cfg)
     asked = sorted(name for name, spec in cfg.experiment.evals.items() if applies(spec, cfg.method.name))
     alike = {"episodes": int(budget.eval.episodes), "seeds": [int(s) for s in budget.eval.seeds]}
     wanted = {stage.name for stage in planned}
     for result in finished:
         root = Path(result.job_dir).parent.parent
-        if job_key(Path(result.job_dir) / RESULT) == own or set(result.stages) != wanted:
+        if job_key(result.job_dir) == own or set(result.stages) != wanted:
             continue
         if same_stages(result, cfg, planned, root) != wanted:
             continue
@@ -176,7 +176,7 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
     earlier = _read_memo(memo)
     kept, records = {}, {}
     for r in results:
-        name = "/".join(job_key(Path(r.job_dir) / RESULT))
+        name = "/".join(job_key(r.job_dir))
         if any(Path(path).is_dir() for path in r.stages.values()):
             r.made_otherwise = made_otherwise(r)
             if name in earlier:  # what a machine without these runs found stays for it

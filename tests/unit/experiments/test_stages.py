@@ -61,6 +61,24 @@ def test_a_method_file_copied_with_its_name_kept_is_refused(tmp_path, monkeypatc
         sweep_overrides(["method=mine", "task=cuboid", *SMOKE])
 
 
+def test_an_experiment_whose_table_no_builder_draws_is_refused_before_it_trains(tmp_path, monkeypatch):
+    import shutil
+
+    from mapush import config
+    from mapush.cli.experiments import _check_table
+
+    conf = tmp_path / "conf"
+    shutil.copytree(config.CONF_DIR, conf)
+    mine = config.group_file("experiment", "ocb_ablation")
+    mine.name, mine.table = "mine", "mian"  # a typo
+    (conf / "experiment" / "mine.yaml").write_text(OmegaConf.to_yaml(mine))
+    monkeypatch.setattr(config, "CONF_DIR", conf)
+    with pytest.raises(BadInput, match=r"experiment=mine: its file says table: mian; valid: main, ocb_ablation, "):
+        _check_table(["experiment=mine", "seed=0"])
+    _check_table(["experiment=ocb_ablation"])  # the shipped ones pass, and an unknown one is left to the sweep
+    _check_table(["experiment=nosuch"])
+
+
 def test_equal_stage_configs_have_one_identity_whatever_the_job_that_composes_them():
     # SA's mid level of the cylinder is the scalability study's 1-robot mid level, composed from other overrides
     sa = compose_config(["experiment=main", "method=sa", "task=cylinder"], config_name="sweep")
