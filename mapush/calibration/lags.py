@@ -99,6 +99,14 @@ def fit_lag(response: np.ndarray, commanded: np.ndarray, dt: float) -> float:
     return float(LAG_GRID[error.argmin()])
 
 
+def at_grid_bound(lag: float) -> str | None:
+    """What a fitted lag at either end of `LAG_GRID` means (a bound, not a fit), or None inside it."""
+    if lag not in (LAG_GRID[0], LAG_GRID[-1]):
+        return None
+    quick = "quickly" if lag == LAG_GRID[0] else "slowly"
+    return f"{lag:g} s is the fit grid's bound: the robot responds at least this {quick}"
+
+
 def steady_fractions(response: np.ndarray, commands: np.ndarray, tail: int) -> dict[str, float]:
     """Per axis (`AXES`), the mean over the step commands along it of the free response's last `tail` steps as a
     share of the command: about 1 for a robot that holds what it is told, as a first-order lag does."""

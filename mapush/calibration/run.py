@@ -10,7 +10,8 @@ Three experiments on the robot that the overrides choose (default `lowlevel=go1`
 
 The fitted values replace those keys in the tracker config (each line says what it was calibrated against and when),
 except a yaw lag the robot does not follow (`STEADY_MIN`), a capacity or push gain the sweep cannot give, or a fall
-curve with no fall, which are reported instead and stay as they were. `calibration.json` (every measurement) and
+curve with no fall, which are reported instead and stay as they were; a yaw lag at the fit grid's bound is written
+and reported (the robot turns at least that quickly). `calibration.json` (every measurement) and
 `calibration.png` (the robot's responses against the fitted tracker's) go to the output dir.
 """
 
@@ -30,6 +31,7 @@ from mapush.calibration.lags import (
     AXES,
     LAG_GRID,
     STEADY_MIN,
+    at_grid_bound,
     fit_lag,
     free_layout,
     run_steps,
@@ -90,6 +92,7 @@ def calibrate(
         )
     else:
         fitted["yaw_lag"] = yaw_lag
+        warnings += [f"yaw_lag: {why}" for why in [at_grid_bound(yaw_lag)] if why]
     # push capacity and force-speed line, and falls under a held load
     push = cap.push_sweep(reference, repeats, seed)
     capacity = cap.fit_capacity(push["drag"], push["speed"])

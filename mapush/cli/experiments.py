@@ -67,7 +67,7 @@ def reproduce(
     tables are written from what finished, and the command exits 1. `--dry-run` prints each sweep's plan against
     the stage store as it is now, so a stage that an earlier sweep would train shows as `train` in both.
     """
-    from mapush.experiments.sweep import sweep_overrides
+    from mapush.experiments.sweep_axes import sweep_overrides
 
     overrides = list(ctx.args)
     keys = {o.partition("=")[0].lstrip("+~"): o.partition("=")[2].strip("'\"") for o in overrides}
@@ -108,7 +108,7 @@ def _sweep(overrides: list[str], dry_run: bool = False, stop: bool = True) -> in
 def _check_table(overrides: list[str]) -> None:
     """Refuse an experiment whose `table:` no builder of `mapush tables` draws: it would train for hours unseen."""
     from mapush import config
-    from mapush.experiments.sweep import DEFAULTS
+    from mapush.experiments.sweep_axes import DEFAULTS
     from mapush.report.tables import BUILDERS
 
     given = [o.partition("=")[2] for o in overrides if o.partition("=")[0] == "experiment"]

@@ -4,6 +4,15 @@ simulator."""
 
 from __future__ import annotations
 
+RATE_DECIMALS = 6
+"""Decimals a success rate keeps when curves are compared: rates are float32 means (0.6 may be 0.59999996), and no
+evaluation has a million episodes."""
+
+
+def clean_rate(rate: float) -> float:
+    """`rate` without its float32 noise (and never -0.0), so that a rule's bound is met or not as printed."""
+    return round(float(rate), RATE_DECIMALS) + 0.0
+
 
 def first_reaching(points: list[dict], threshold: float) -> dict | None:
     """The first point whose success rate is at least `threshold` (its keys but the rates), or None."""
@@ -26,7 +35,7 @@ def tail_gain(points: list[dict], tail: float) -> float | None:
     """Success gained over the last `tail` fraction of the env-steps: the last point's rate minus that of
     `tail_start`; None with one point."""
     start = tail_start(points, tail)
-    return None if start is None else points[-1]["success_rate"] - start["success_rate"]
+    return None if start is None else clean_rate(points[-1]["success_rate"] - start["success_rate"])
 
 
 def steps_to_reach(points: list[dict], target: float, tail: float) -> float | None:

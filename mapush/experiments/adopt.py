@@ -18,10 +18,9 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from mapush.config import compose_config, load_run_config, to_plain
+from mapush.config import load_run_config, to_plain
 from mapush.experiments import stages
-from mapush.experiments.stage_plan import planned_stages
-from mapush.experiments.sweep import job_combos, sweep_overrides
+from mapush.experiments.sweep_axes import planned_jobs, sweep_overrides
 from mapush.rundir import find_runs
 
 RUN_CONFIG = "config.yaml"
@@ -42,10 +41,9 @@ def run_identity(run_dir: Path, adopted: dict[Path, Path]) -> str | None:
 def adopt(runs: list[Path], overrides: list[str]) -> dict[Path, Path]:
     """Copy each of `runs` that is a planned stage without a run into the store: {run: its copy in the store}."""
     adopted: dict[Path, Path] = {}
-    for combo in job_combos(sweep_overrides(overrides)):
-        cfg = compose_config(combo, config_name="sweep")
-        for stage in planned_stages(cfg):
-            directory = stages.stage_dir(Path(cfg.sweep_root), stage.identity)
+    for job in planned_jobs(sweep_overrides(overrides)):
+        for stage in job.stages:
+            directory = stages.stage_dir(Path(job.cfg.sweep_root), stage.identity)
             for run in runs:
                 if run in adopted or run_identity(run, adopted) != stage.identity:
                     continue
@@ -62,7 +60,7 @@ def adopt(runs: list[Path], overrides: list[str]) -> dict[Path, Path]:
                     OmegaConf.save(config, target / RUN_CONFIG)
                 stages.write_identity(directory, stage.cfg, stage.identity, trained_as_run=str(run))
                 adopted[run] = target.resolve()
-                print(f"adopted {run} as {' '.join(combo)} {stage.name}: {target}")
+                print(f"adopted {run} as {' '.join(job.combo)} {stage.name}: {target}")
     for run in runs:
         if run not in adopted:
             print(f"not adopted (no planned stage without a run has its config): {run}")

@@ -29,10 +29,9 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from mapush.config import compose_config
 from mapush.experiments import stages
-from mapush.experiments.stage_plan import planned_stages
-from mapush.experiments.sweep import dry_run, job_combos, sweep_overrides
+from mapush.experiments.sweep import dry_run
+from mapush.experiments.sweep_axes import planned_jobs, sweep_overrides
 from mapush.rundir import find_runs
 
 HERE = Path(__file__).resolve().parents[2]
@@ -82,12 +81,10 @@ def rekey(old: Path, mid_run: str, overrides: list[str]) -> int:
     old_rows = json.loads(at_checkout(old, ["-c", PLAN, *overrides]).split("ROWS ", 1)[1])
     old_ids = {(r["job"], r["stage"]): r["identity"] for r in old_rows}
     new_rows = dry_run(overrides)
-    full = sweep_overrides(overrides)
     planned = {}
-    for combo in job_combos(full):
-        cfg = compose_config(combo, config_name="sweep")
-        for stage in planned_stages(cfg):
-            planned[stage.identity] = (stage, Path(cfg.sweep_root))
+    for job in planned_jobs(sweep_overrides(overrides)):
+        for stage in job.stages:
+            planned[stage.identity] = (stage, Path(job.cfg.sweep_root))
     adopted = 0
     for row in new_rows:
         key = (row["job"], row["stage"])

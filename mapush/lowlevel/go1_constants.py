@@ -3,8 +3,8 @@
 Sources (facts, not code): Unitree's Go1 URDF (`go1_description`) as reproduced in public Go1 tooling (link
 offsets, masses, centres of mass, principal inertias, joint ranges); Unitree's Go1 motor specification (23.7 N m
 hip and thigh, 35.55 N m knee after the 1.5x knee reduction). Links are primitive shapes; the inertias are the
-URDF's diagonals (its off-diagonal terms are under 2 % of them). Total mass 12.0 kg (docs/fidelity.md:
-11.3 kg of links in the original's URDF, the battery aside).
+URDF's diagonals (its off-diagonal terms are under 2 % of them). Total mass 12.03 kg, the trunk 5.204 kg (the
+original's copy of the URDF: 11.31 kg, its trunk 4.8 kg; docs/fidelity.md).
 """
 
 from __future__ import annotations
@@ -39,7 +39,6 @@ FOOT_MASS = 0.06  # kg
 
 JOINT_RANGE = {"hip": (-0.863, 0.863), "thigh": (-0.686, 4.501), "calf": (-2.818, -0.888)}  # rad
 TORQUE_LIMIT = {"hip": 23.7, "thigh": 23.7, "calf": 35.55}  # N m
-VELOCITY_LIMIT = {"hip": 30.1, "thigh": 30.1, "calf": 20.06}  # rad/s
 
 DEFAULT_POSE = {"hip": 0.1, "thigh": 0.8, "calf": -1.5}
 """Standing joint angles, rad (hip abduction outward: +0.1 on the left legs, -0.1 on the right)."""

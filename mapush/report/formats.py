@@ -102,6 +102,11 @@ class Table:
     otherwise: list[str] = field(default_factory=list)  # jobs made otherwise than planned now, and how
 
 
+def counted(n: int, noun: str) -> str:
+    """`n` of `noun`, plural unless one: "1 robot", "2 robots", "3 seeds"."""
+    return f"{n} {noun}" + ("s" if n != 1 else "")
+
+
 def markdown(table: Table) -> str:
     head = [*table.row_header, *table.columns]
     lines = [f"**{table.title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mapush.eval.curve_points import first_reaching, tail_gain
+from mapush.eval.curve_points import clean_rate, first_reaching, tail_gain
 from mapush.experiments.results import JobResult
-from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Finding
+from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Finding, counted
 
 
 def curve_of(result: JobResult, stage: str | None = None) -> dict | None:
@@ -85,11 +85,12 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     gains = [g for g in (tail_gain(c["points"], float(rule["tail"])) for c in curves) if g is not None]
     if not gains:
         return Finding(f"{label}: too few checkpoints to judge the budget")
-    mean, std, limit = 100 * np.mean(gains), 100 * np.std(gains), 100 * float(rule["max_gain"])
-    numbers = {"tail_gain_points": float(mean), "tail_gain_std": float(std), "limit_points": limit}
-    if mean >= limit:
+    gain, max_gain = clean_rate(np.mean(gains)), clean_rate(rule["max_gain"])  # compared as printed
+    mean, std, limit = 100 * gain, 100 * clean_rate(np.std(gains)), 100 * max_gain
+    numbers = {"tail_gain_points": mean, "tail_gain_std": std, "limit_points": limit}
+    if gain >= max_gain:
         verdict = "NOT flattened: still learning"
-    elif mean > -limit:
+    elif gain > -max_gain:
         verdict = "flattened"
     else:  # lost as much as the rule lets a flat curve gain: the budget runs past the curve's peak
         x, rates, _ = mean_curve([c["points"] for c in curves])
@@ -98,12 +99,12 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
             f"flattened, then falling: the mean curve peaked at {100 * rates[peak]:.1f} % "
             f"after {x[peak] / 1e6:.1f}M env-steps"
         )
-    seeds = f"{len(gains)} seed" + ("s" if len(gains) != 1 else "")
+    seeds = counted(len(gains), "seed")
     text = (
         f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
         f"points over {seeds} (rule: < {limit:.0f}): {verdict}"
     )
-    return Finding(text, bool(mean < limit), numbers)
+    return Finding(text, gain < max_gain, numbers)
 
 
 def stage_verdicts(label: str, results: list[JobResult], stages: list[str]) -> list[Finding]:

@@ -9,14 +9,10 @@ from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, final_cell, matching
-from mapush.report.formats import Finding, Table
+from mapush.report.formats import OTHERWISE, Finding, Table, counted
 
 SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 """The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
-
-
-def _robots(n: int) -> str:
-    return f"{n} robot" + ("s" if n != 1 else "")
 
 
 def scale_table(results: list[JobResult], variant: str) -> Table:
@@ -33,20 +29,22 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         ]
         cells[1].digits = 2
         if not cells[0].values:
-            missing.append(f"{_robots(n)}: no finished job")
+            missing.append(f"{counted(n, 'robot')}: no finished job")
         elif not cells[2].values:
-            missing.append(f"{_robots(n)} / mid level: no curve of the mid level alone")
+            missing.append(f"{counted(n, 'robot')} / mid level: no curve of the mid level alone")
         rows.append(([str(n)], cells))
     findings = []
+    marked = {int(labels[0]) for labels, cells in rows if any(c.otherwise for c in cells)}  # an earlier recipe's
     measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
     if measured:
         top = max(m[0] for m in measured)
-        best = [f"{n} ({mean:.1f} \u00b1 {std:.1f} % S.R.)" for mean, std, n in measured if np.isclose(mean, top)]
+        best = [f"{n}{_mark(int(n), marked)} ({mean:.1f} \u00b1 {std:.1f} % S.R.)" for mean, std, n in measured
+                if np.isclose(mean, top)]  # fmt: skip
         among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
         text = f"Best robot count{among} here: {' and '.join(best)}" + (", tied" if len(best) > 1 else "")
         findings.append(Finding(text, numbers={f"{m[2]}_robots_sr": float(m[0]) for m in measured}))
-    findings += _scale_paper_findings(rows) + _reference_mid_finding(rows)
-    lines = {_robots(n): matching(mine, num_agents=n) for n in counts}
+    findings += _scale_paper_findings(rows, marked) + _reference_mid_finding(rows)
+    lines = {counted(n, "robot"): matching(mine, num_agents=n) for n in counts}
     findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
     drawn = plots.drawn_stages(mine)
     findings += [v for label, r in lines.items() for v in plots.stage_verdicts(label, r, drawn)]
@@ -65,10 +63,15 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
     )
 
 
-def _scale_paper_findings(rows: list) -> list[Finding]:
+def _mark(n: int, marked: set[int]) -> str:
+    return f" {OTHERWISE}" if n in marked else ""
+
+
+def _scale_paper_findings(rows: list, marked: set[int]) -> list[Finding]:
     """The paper's four readings of its scalability figure (paper IV-B-3; it gives no numbers), each judged on the
     means over seeds of the whole hierarchy (S.R., and C.T. where the paper says "both metrics") and of the mid
-    level alone (S.R.), among the figure's robot counts that finished."""
+    level alone (S.R.), among the figure's robot counts that finished; a reading that rests on rows marked as
+    made otherwise (`marked`) says which."""
     figure = PAPER["scale"]["robots"]
 
     def means(column: int) -> dict[int, float]:
@@ -85,7 +88,8 @@ def _scale_paper_findings(rows: list) -> list[Finding]:
             return None
         others = {n: v for n, v in sr.items() if n != 1}
         low = min(others, key=others.get)
-        return sr[1] < others[low], f"1 robot {sr[1]:.1f} %, the lowest other: {_robots(low)} at {others[low]:.1f} %"
+        lowest = f"{counted(low, 'robot')} at {others[low]:.1f} %"
+        return sr[1] < others[low], f"1 robot {sr[1]:.1f} %, the lowest other: {lowest}"
 
     def two_improve(sr: dict, column: int) -> tuple[bool, str] | None:
         if not {1, 2} <= sr.keys():
@@ -97,10 +101,10 @@ def _scale_paper_findings(rows: list) -> list[Finding]:
         if 3 not in sr or len(sr) < 2:
             return None
         best = max(sr, key=sr.get)
-        holds, detail = best == 3, f"the highest S.R.: {_robots(best)}"
+        holds, detail = best == 3, f"the highest S.R.: {counted(best, 'robot')}"
         if column == 0 and 3 in ct:
             fastest = min(ct, key=ct.get)
-            holds, detail = holds and fastest == 3, f"{detail}; the lowest C.T.: {_robots(fastest)}"
+            holds, detail = holds and fastest == 3, f"{detail}; the lowest C.T.: {counted(fastest, 'robot')}"
         return holds, detail
 
     def four_worse(sr: dict, column: int) -> tuple[bool, str] | None:
@@ -108,15 +112,15 @@ def _scale_paper_findings(rows: list) -> list[Finding]:
             return None
         return sr[4] < sr[3], f"{sr[4] - sr[3]:+.1f} points from 3 robots to 4"
 
-    claims = {
-        "one robot struggles": one_struggles,
-        "two robots improve S.R. substantially on one": two_improve,
-        "three robots are best on both metrics": three_best,
-        "four robots do slightly worse than three": four_worse,
+    claims = {  # each judge, and the robot counts it reads (None: every one)
+        "one robot struggles": (one_struggles, None),
+        "two robots improve S.R. substantially on one": (two_improve, {1, 2}),
+        "three robots are best on both metrics": (three_best, None),
+        "four robots do slightly worse than three": (four_worse, {3, 4}),
     }
     judged = {0: ("whole hierarchy", means(0)), 2: ("mid level alone", means(2))}
     lines = []
-    for claim, judge in claims.items():
+    for claim, (judge, reads) in claims.items():
         parts, verdicts = [], []
         for column, (what, sr) in judged.items():
             verdict = judge(sr, column)
@@ -125,6 +129,9 @@ def _scale_paper_findings(rows: list) -> list[Finding]:
                 verdicts.append(bool(verdict[0]))
         if parts:
             text = f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {'; '.join(parts)}"
+            resting = sorted(marked & (judged[0][1].keys() | judged[2][1].keys()) & (reads or set(figure)))
+            if resting:
+                text += f" (rows {', '.join(map(str, resting))} marked {OTHERWISE}: an earlier recipe's)"
             lines.append(Finding(text, all(verdicts)))  # holds where it holds for every level judged
     return lines
 

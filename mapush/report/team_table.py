@@ -13,7 +13,7 @@ from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import collect
-from mapush.report.formats import Finding, Table
+from mapush.report.formats import Finding, Table, counted
 from mapush.report.physics import object_drag, one_robot_capacity
 
 TEAM = group_file("experiment", "team")
@@ -47,7 +47,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
     for task in TEAM.sweep.task:
         for n in TEAM.sweep.agents:
             jobs = [r for r in mine if r.task == task and r.num_agents == n]
-            lines[f"{task} / {n} robots"] = jobs
+            lines[f"{task} / {counted(n, 'robot')}"] = jobs
             cells = []
             for name, mass in masses.items():
                 cell = collect(jobs, "success_rate", 100.0, eval=name)
@@ -55,7 +55,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 cell.note = f"margin {margin:.2f}" if margin is not None else ""
                 cells.append(cell)
             if not jobs:
-                missing.append(f"{task} / {n} robots: no finished job")
+                missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses)
     findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
@@ -92,7 +92,7 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
             done = [(n, cells[k]) for n, cells in team_rows if cells[k].values]
             if not done:
                 continue
-            enough = [(n, c) for n, c in done if np.mean(c.values) >= 50.0]
+            enough = sorted((n, c) for n, c in done if np.mean(c.values) >= 50.0)  # the fewest first
             parts.append(
                 f"{mass:g} kg: {enough[0][0]} ({enough[0][1].note})" if enough else f"{mass:g} kg: none of {len(done)}"
             )

@@ -63,6 +63,20 @@ def test_the_fall_fit_recovers_a_known_curve_from_synthetic_falls(load_n, width_
     assert curve["width_n"] == pytest.approx(width_n, rel=0.3)
 
 
+def test_a_lag_at_the_fit_grids_end_is_reported_as_a_bound():
+    from mapush.calibration.lags import at_grid_bound
+
+    t = np.arange(1, 151) * 0.02
+    instant = np.ones((4, t.size))  # at its commanded rate from the first sample: quicker than the grid resolves
+    lag = fit_lag(instant, np.ones(4), 0.02)
+    assert (
+        lag == LAG_GRID[0]
+        and at_grid_bound(lag) == "0.02 s is the fit grid's bound: the robot responds at least this quickly"
+    )
+    slow = 1.0 - np.exp(-t[None, :] / 0.3).repeat(4, 0)
+    assert at_grid_bound(fit_lag(slow, np.ones(4), 0.02)) is None
+
+
 def test_no_fall_gives_no_curve():
     load = np.repeat(capacity.LOAD_GRID, 3)
     assert capacity.fit_fall_curve(load, np.zeros(load.shape, dtype=bool)) is None

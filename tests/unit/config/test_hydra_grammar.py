@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from mapush.experiments.sweep import _split_axes, job_combos
+from mapush.experiments.sweep_axes import job_combos, split_axes
 
 
 def test_cfg_job_prints_the_composed_config_and_trains_nothing(cli, tmp_path):
@@ -45,7 +45,7 @@ def test_hydra_run_dir_decides_the_run_dir_which_carries_dot_hydra(cli, tmp_path
 )
 def test_sweep_axes_follow_hydras_sweep_grammar(override, values):
     key = override.partition("=")[0]
-    assert _split_axes([override]) == {key: values}
+    assert split_axes([override]) == {key: values}
 
 
 def test_jobs_are_the_product_of_the_axes():

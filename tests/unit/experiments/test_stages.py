@@ -20,7 +20,7 @@ from mapush.experiments.results import RESULT, SUPERSEDED, JobResult, read_resul
 from mapush.experiments.stage_plan import planned_stages, stage_budget
 from mapush.experiments.stages import compose_stage, identity_of
 from mapush.experiments.staleness import result_changes
-from mapush.experiments.sweep import sweep_overrides
+from mapush.experiments.sweep_axes import sweep_overrides
 from mapush.migrations import UNSET_LATER_KEYS
 from mapush.rundir import find_runs
 

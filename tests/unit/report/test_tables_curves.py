@@ -94,6 +94,24 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
     assert str(budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])])).endswith("(rule: < 3): flattened")
 
 
+def test_a_gain_on_the_rules_bound_is_judged_as_printed_not_by_its_float32_noise():
+    import numpy as np
+
+    from mapush.report.plots import budget_verdict
+
+    def result(rates):  # the rates as result.json holds them: float32 means
+        points = [{"env_steps": (k + 1) * 1e6, "success_rate": float(np.float32(sr))} for k, sr in enumerate(rates)]
+        return JobResult(curve={"rule": RULE, "points": points})
+
+    # 0.49 -> 0.52 and 0.36 -> 0.39: +3.0 points, the rule's bound (< 3); in float32 each is +2.9999997
+    on_bound = [result([0.1, 0.2, 0.3, 0.49, 0.52]), result([0.1, 0.2, 0.3, 0.36, 0.39])]
+    assert str(budget_verdict("SA", on_bound)).endswith("added +3.0 \u00b1 0.0 points over 2 seeds (rule: < 3): NOT "
+                                                        "flattened: still learning")  # fmt: skip
+    # 0.52 -> 0.49 on both: -3.0, the bound of "falling"; and a gain of 0 prints +0.0, never -0.0
+    assert "then falling" in str(budget_verdict("SA", [result([0.1, 0.2, 0.3, 0.52, 0.49])] * 2))
+    assert "added +0.0 \u00b1 0.0" in str(budget_verdict("SA", [result([0.1, 0.2, 0.3, 0.57, 0.57])] * 2))
+
+
 def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
     from mapush.report.plots import budget_verdict
 
@@ -381,6 +399,16 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
     tied = [dataclasses.replace(r, evals={**r.evals, "main": main}) if r.num_agents == 6 else r for r in results]
     best = "Best robot count here: 3 (85.0 \u00b1 5.0 % S.R.) and 6 (85.0 \u00b1 0.0 % S.R.), tied"
     assert str(scale_table(tied, "quick").findings[0]) == best
+    # rows of an earlier recipe (\u2020): the findings that read them say so, those that do not stay as they were
+    earlier = Change("stages", "its stages changed", ("mid",))
+    marked = [dataclasses.replace(r, made_otherwise=earlier) if r.num_agents in (4, 6) else r for r in results]
+    findings = {str(f).split(". Here, ")[0]: str(f) for f in scale_table(marked, "quick").findings}
+    assert findings["Best robot count here: 6 \u2020 (95.0 \u00b1 0.0 % S.R.)"]
+    assert findings[paper + "four robots do slightly worse than three"].endswith(
+        "(rows 4 marked \u2020: an earlier recipe's)"
+    )
+    assert findings[paper + "one robot struggles"].endswith("(rows 4 marked \u2020: an earlier recipe's)")
+    assert "\u2020" not in findings[paper + "two robots improve S.R. substantially on one"]
 
 
 def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robots_that_push(tmp_path):
@@ -405,7 +433,7 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     margin = (low + high) / 2 / (2 * one_robot_capacity())  # two robots at 24 kg
     assert cells[("cuboid", "2")][2].text() == f"80.0 \u00b1 0.0 [margin {margin:.2f}]"
     assert cells[("cylinder", "3")][0].text().startswith("\u2014")  # no job: an empty cell
-    assert "cylinder / 1 robots: no finished job" in table.missing
+    assert "cylinder / 1 robot: no finished job" in table.missing
     found = next(f for f in table.findings if str(f).startswith("cuboid:"))
     assert found.numbers == {"2_kg_robots": 1, "8_kg_robots": 1, "24_kg_robots": 2}  # 64 kg: none of the four
     assert str(found).startswith("cuboid: the fewest robots reaching 50 % S.R. by mass: 2 kg: 1 (margin ")
