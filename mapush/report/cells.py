@@ -9,18 +9,13 @@ import yaml
 from mapush.config import group_file
 from mapush.experiments.results import JobResult, searchpath_overrides
 from mapush.report import plots
-from mapush.report.formats import Cell
+from mapush.report.formats import SIGNIFICANT, Cell
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
 """The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; each table's `labels`
 are its methods' own (`label` in `conf/method/`)."""
 for _table in ("main", "ocb_ablation"):
     PAPER[_table]["labels"] = {m: str(group_file("method", m).label) for m in PAPER[_table]["methods"]}
-
-
-SIGNIFICANT = 6
-"""Significant digits a cell keeps of each value: results hold float32 rates (a 42 % S.R. is 0.41999998688...),
-so that a mean the table prints as 50.0 is 50.0 when a finding compares it."""
 
 
 def matching(results: list[JobResult], **match) -> list[JobResult]:

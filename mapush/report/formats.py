@@ -13,6 +13,11 @@ from mapush.report.cost import cost_line
 
 MISSING = "\u2014"
 """An empty cell: no finished job behind it."""
+SIGNIFICANT = 6
+"""Significant digits a cell keeps of each value: results hold float32 rates (a 42 % S.R. is 0.41999998688...),
+so that a mean the table prints as 50.0 is 50.0 when a finding compares it."""
+OVER_SEEDS = "mean \u00b1 std over training seeds (the population std: of two seeds, half their difference)"
+"""What every cell's two numbers are, as the tables' notes say."""
 OTHERWISE = "\u2020"
 """Marks a cell with seeds from jobs made otherwise than their experiment plans them now: an earlier recipe."""
 MADE_OTHERWISE = "made otherwise than the experiment plans now (an earlier recipe)"
@@ -46,7 +51,8 @@ class Cell:
             ours += f" [{self.note}]"
         if self.paper is None:
             return ours
-        return f"{ours} ({self.paper[0]:.{digits}f} \u00b1 {self.paper[1]:.{digits}f})"
+        given = max(digits, *(_decimals(x) for x in self.paper))  # the paper's numbers as it gives them: 0.23, not 0.2
+        return f"{ours} ({self.paper[0]:.{given}f} \u00b1 {self.paper[1]:.{given}f})"
 
     def _ours(self) -> str:
         digits = self.digits
@@ -65,6 +71,12 @@ class Cell:
             "paper": list(self.paper) if self.paper else None,
             "sources": self.sources,
         }
+
+
+def _decimals(number: float) -> int:
+    """The decimals `number` is written with (0.23: 2, 24.3: 1, 4: 0)."""
+    text = repr(float(number))
+    return 0 if text.endswith(".0") else len(text.partition(".")[2])
 
 
 @dataclass(frozen=True)
@@ -153,15 +165,20 @@ def latex(table: Table) -> str:
 def csv_text(table: Table) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["row", "column", "mean", "std", "seeds", "paper_mean", "paper_std", "sources"])
+    keys = ["mean", "std", "seeds", "unreached", "made_otherwise", "note"]  # every field of a cell but its lists
+    writer.writerow(["row", "column", *keys, "paper_mean", "paper_std", "sources"])
     for labels, cells in table.rows:
         for column, cell in zip(table.columns, cells, strict=True):
             rec = cell.record()
+            numbers = [_csv_number(rec[key]) for key in keys]
             paper = rec["paper"] or [None, None]
-            writer.writerow(
-                [" / ".join(labels), column, rec["mean"], rec["std"], rec["seeds"], *paper, ";".join(rec["sources"])]
-            )
+            writer.writerow([" / ".join(labels), column, *numbers, *paper, ";".join(rec["sources"])])
     return out.getvalue()
+
+
+def _csv_number(value):
+    """A float as its `SIGNIFICANT` digits (a std of 8.640987597877148 is 8.64099), anything else as it is."""
+    return float(f"{value:.{SIGNIFICANT}g}") if isinstance(value, float) else value
 
 
 def sidecar(table: Table) -> dict:

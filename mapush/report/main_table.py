@@ -11,7 +11,7 @@ from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching, searchpaths
-from mapush.report.formats import Finding, Table
+from mapush.report.formats import OVER_SEEDS, Finding, Table
 from mapush.report.physics import team_needed
 
 EXTRA_COLUMNS = {
@@ -86,7 +86,7 @@ def main_table(results: list[JobResult], variant: str) -> Table:
         [*(paper["labels"][m] for m in methods), *EXTRA_COLUMNS.values()],
         rows,
         sorted(set(missing)),
-        "S.R. over the evaluation trials, C.T. normalized by the timeout; mean \u00b1 std over training seeds. "
+        f"S.R. over the evaluation trials, C.T. normalized by the timeout; {OVER_SEEDS}. "
         "Ours, path only: Ours' hierarchy with every subgoal on the planned path (`level.follow_path=true`), the bar "
         "its learned high level has to clear. H+L, path only: a hand-written pusher in H+L's action space, each robot "
         "led along the planned path (`level.follow_path=true` on `level=high_nav`), the bar H+L and H+L FT have to "

@@ -7,7 +7,7 @@ import numpy as np
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, matching, reach_cell
-from mapush.report.formats import Finding, Table
+from mapush.report.formats import OVER_SEEDS, Finding, Table
 
 
 def ocb_table(results: list[JobResult], variant: str) -> Table:
@@ -46,7 +46,7 @@ def ocb_table(results: list[JobResult], variant: str) -> Table:
         columns,
         rows,
         missing,
-        "Free space, 1.5 m cuboid of 6 kg, 2 robots, subgoals 1.5-3 m away; mean \u00b1 std over training seeds.",
+        f"Free space, 1.5 m cuboid of 6 kg, 2 robots, subgoals 1.5-3 m away; {OVER_SEEDS}.",
         findings,
         {f"OCB ablation, {paper['eval_labels'][curve['eval']]}" if curve else "": arms},
     )
@@ -73,7 +73,7 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
             verdict = {True: "holds", False: "does not hold", None: "is within the seeds' spread"}[holds]
             text = (
                 f"{paper['eval_labels'][name]}: the paper's OCB {what} ({p_ours:g} vs {p_other:g}) {verdict} here: "
-                f"{gain:+.1f} {unit} (std over seeds {spread:.1f})"
+                f"{gain:+.1f} {unit} (the seeds' spread {spread:.1f}: both arms' stds, in quadrature)"
             )
             findings.append(Finding(text, holds, {"gain": gain, "spread": spread, "paper_with": p_ours,
                                                   "paper_without": p_other}))  # fmt: skip

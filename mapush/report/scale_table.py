@@ -9,7 +9,7 @@ from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import PAPER, collect, final_cell, matching
-from mapush.report.formats import OTHERWISE, Finding, Table, counted
+from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 
 SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 """The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
@@ -55,7 +55,7 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         ["S.R. (%) \u2191", "C.T. \u2193", "Mid level S.R. (%) \u2191"],
         rows,
         missing,
-        "Whole hierarchy; C.T. normalized by the timeout; mean \u00b1 std over training seeds. Mid level: the "
+        f"Whole hierarchy; C.T. normalized by the timeout; {OVER_SEEDS}. Mid level: the "
         "same jobs' mid level alone on its 20 s pushes, at the end of its budget (the last point of its own "
         "learning curve). The paper gives a figure only.",
         findings,

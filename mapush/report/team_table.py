@@ -13,7 +13,7 @@ from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import plots
 from mapush.report.cells import collect
-from mapush.report.formats import Finding, Table, counted
+from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import object_drag, one_robot_capacity
 
 TEAM = group_file("experiment", "team")
@@ -67,7 +67,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
         rows,
         missing,
         "The mid level alone on its 20 s pushes, one policy per robot count trained over masses of "
-        f"{_range_text()} and evaluated at each mass; mean \u00b1 std over training seeds. Margin: the object's "
+        f"{_range_text()} and evaluated at each mass; {OVER_SEEDS}. Margin: the object's "
         f"drag (mass x g x its mean friction) over the robots' summed push capacity ({capacity or 0:.1f} N each, the "
         "calibrated tracker's): above 1 the team cannot move it even all pushing at once.",
         findings,

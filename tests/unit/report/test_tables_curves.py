@@ -3,7 +3,9 @@ the curves plot; from fixture job results with hand-made curves."""
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import io
 import json
 import re
 from pathlib import Path
@@ -13,7 +15,7 @@ import pytest
 
 from mapush.eval.curve_points import tail_gain
 from mapush.experiments.results import RESULT, Change, JobResult
-from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, latex, markdown, sidecar
+from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, csv_text, latex, markdown, sidecar
 
 RULE = {"tail": 0.2, "max_gain": 0.03}
 CURVES = {  # success at 1, 2, 3, 4, 5 M env-steps, per seed
@@ -136,9 +138,9 @@ def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_
     assert "| 3.00 \u00b1 0.82 |" in md
     assert "| 3.00 (1 seed) (2 of 3 seeds never) |" in md
     # final S.R. at 20 s: 70.0 +- 8.2 against 40.0 +- 8.2: a gap of 30 points, spread hypot(8.16, 8.16) = 11.5
-    assert "timeout 20 s: the paper's OCB gain in S.R. (57 vs 13) holds here: +30.0 points (std over seeds 11.5)" in md
+    assert "timeout 20 s: the paper's OCB gain in S.R. (57 vs 13) holds here: +30.0 points (the seeds' spread 11.5: both arms' stds, in quadrature)" in md
     # C.T. 16 s in both arms: no saving, against the paper's 14.9 vs 18.3 s
-    assert "the paper's OCB saving in C.T. (14.9 vs 18.3) does not hold here: +0.0 s (std over seeds 0.0)" in md
+    assert "the paper's OCB saving in C.T. (14.9 vs 18.3) does not hold here: +0.0 s (the seeds' spread 0.0: both arms' stds, in quadrature)" in md
     assert "timeout 20 s (the paper measured none): Ours 3.00 \u00b1 0.82; Ours w/o OCB 3.00 (1 seed) (2 of 3" in md
     # last fifth: ours gains 1, 2, 3 points -> +2.0 +- 0.8; without OCB 5, 0, 10 -> +5.0 +- 4.1
     assert "Ours: the last 20 % of the budget added +2.0 \u00b1 0.8 points over 3 seeds (rule: < 3): flattened" in md
@@ -292,11 +294,21 @@ def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
 def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
     cell = Cell([80.0, 60.0], ["a", "b"], paper=(77.5, 3.0), otherwise=1)
     assert cell.text() == "70.0 \u00b1 10.0 \u2020 (77.5 \u00b1 3.0)" and cell.record()["made_otherwise"] == 1
+    # the paper's numbers as it gives them, never rounded to our cell's digits
+    assert Cell([0.0, 0.0], paper=(0.23, 0.02)).text() == "0.0 \u00b1 0.0 (0.23 \u00b1 0.02)"
+    assert Cell([0.5, 0.7], paper=(1.0, 0.0), digits=2).text() == "0.60 \u00b1 0.10 (1.00 \u00b1 0.00)"
     assert "\u2020" not in Cell([80.0, 60.0], ["a", "b"]).text()
     table = Table("t", "T", ["Task"], ["S.R."], [(["Cuboid"], [cell])], otherwise=["job: its stages changed (...)"])
     lines = markdown(table).splitlines()
     assert lines[lines.index(OTHERWISE_NOTE) + 1] == "- job: its stages changed (...)"
     assert "$\\dagger$" in latex(table) and sidecar(table)["made_otherwise"] == ["job: its stages changed (...)"]
+    # the CSV keeps what the Markdown shows beside the numbers: the mark, seeds that never reached, the note
+    rows = list(csv.DictReader(io.StringIO(csv_text(table))))
+    assert rows[0]["made_otherwise"] == "1" and rows[0]["mean"] == "70.0" and rows[0]["paper_mean"] == "77.5"
+    odd = Table("t", "T", ["Task"], ["M"], [(["Cuboid"], [Cell([8.412345678], unreached=2, note="margin 0.5")])])
+    assert {
+        k: v for k, v in next(csv.DictReader(io.StringIO(csv_text(odd)))).items() if k in ("mean", "unreached", "note")
+    } == {"mean": "8.41235", "unreached": "2", "note": "margin 0.5"}
     assert OTHERWISE_NOTE not in markdown(Table("t", "T", ["Task"], ["S.R."], [(["Cuboid"], [Cell([1.0])])]))
 
 
