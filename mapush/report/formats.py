@@ -112,6 +112,11 @@ class Table:
     curves: dict = field(default_factory=dict)  # {panel: {label: results}} for the learning-curve plot
     cost: dict = field(default_factory=dict)  # what the runs behind it cost (`mapush.report.cost`)
     otherwise: list[str] = field(default_factory=list)  # jobs made otherwise than planned now, and how
+    reading: str = ""  # how to read a cell, after the title in the table's heading: "ours (paper)"
+
+    @property
+    def heading(self) -> str:
+        return f"{self.title}: {self.reading}" if self.reading else self.title
 
 
 def counted(n: int, noun: str) -> str:
@@ -121,7 +126,7 @@ def counted(n: int, noun: str) -> str:
 
 def markdown(table: Table) -> str:
     head = [*table.row_header, *table.columns]
-    lines = [f"**{table.title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = [f"**{table.heading}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for labels, cells in table.rows:
         lines.append("| " + " | ".join([*labels, *(c.text() for c in cells)]) + " |")
     lines += ["", table.note]
@@ -187,6 +192,6 @@ def sidecar(table: Table) -> dict:
         for labels, cells in table.rows
         for column, cell in zip(table.columns, cells, strict=True)
     ]
-    return {"table": table.name, "title": table.title, "cells": cells, "missing": table.missing,
+    return {"table": table.name, "title": table.heading, "cells": cells, "missing": table.missing,
             "findings": [f.record() for f in table.findings], "cost": table.cost,
             "made_otherwise": table.otherwise}  # fmt: skip

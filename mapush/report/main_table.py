@@ -81,7 +81,7 @@ def main_table(results: list[JobResult], variant: str) -> Table:
         findings += [v for m, r in lines.items() for v in plots.stage_verdicts(f"{m} / {task}", r, drawn)]
     return Table(
         f"main_{variant}",
-        f"Main results ({variant}): ours (paper)",
+        f"Main results ({variant})",
         ["Task", "Metric"],
         [*(paper["labels"][m] for m in methods), *EXTRA_COLUMNS.values()],
         rows,
@@ -95,6 +95,7 @@ def main_table(results: list[JobResult], variant: str) -> Table:
         "paper's legged robots; SA, legged: the single robot on a Go1 likewise.",
         findings,
         panels,
+        reading="ours (paper)",
     )
 
 
@@ -132,8 +133,9 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
         sa = float(np.mean(sr["sa"]))
         verdict = "below" if sa < mean else "at or above"
         found_at = searchpaths(matching(mine, task=task))  # a task of yours: where its jobs found it
-        text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {team_needed(task, found_at)}"
-        lines.append(Finding(text, sa < mean, {"sa_sr": sa, "ours_sr": mean}))
+        need, forces = team_needed(task, found_at)
+        text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {need}"
+        lines.append(Finding(text, sa < mean, {"sa_sr": sa, "ours_sr": mean, **forces}))
     scripted = collect(mine, "success_rate", 100.0, method="hl", task=task, eval="path_only").values
     for method in ("hl", "hl_ft"):
         if scripted and sr.get(method):

@@ -41,7 +41,7 @@ def ocb_table(results: list[JobResult], variant: str) -> Table:
     findings = _ocb_findings(paper, columns, rows, arms)
     return Table(
         f"ocb_ablation_{variant}",
-        f"OCB ablation ({variant}): ours (paper)",
+        f"OCB ablation ({variant})",
         ["Method"],
         columns,
         rows,
@@ -49,6 +49,7 @@ def ocb_table(results: list[JobResult], variant: str) -> Table:
         f"Free space, 1.5 m cuboid of 6 kg, 2 robots, subgoals 1.5-3 m away; {OVER_SEEDS}.",
         findings,
         {f"OCB ablation, {paper['eval_labels'][curve['eval']]}" if curve else "": arms},
+        reading="ours (paper)",
     )
 
 

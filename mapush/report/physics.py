@@ -51,12 +51,14 @@ def _one_robot_capacity(overrides: tuple[str, ...]) -> float | None:
     return tracker_capacity(cfg["lowlevel"], float(cfg["level"]["action_scale"][0]))
 
 
-def team_needed(task: str, overrides=()) -> str:
-    """One line: the object's drag against one robot's capacity, and whether one robot can move it alone."""
+def team_needed(task: str, overrides=()) -> tuple[str, dict[str, float]]:
+    """One line: the object's drag against one robot's capacity, and whether one robot can move it alone; and
+    those numbers (N)."""
     low, high = object_drag(task, overrides)
     capacity = one_robot_capacity(overrides)
+    numbers = {"drag_low_n": low, "drag_high_n": high}
     if capacity is None:
-        return f"drag {low:.1f}-{high:.1f} N"
+        return f"drag {low:.1f}-{high:.1f} N", numbers
     verdict = (
         "one robot cannot move it alone"
         if low > capacity
@@ -64,4 +66,5 @@ def team_needed(task: str, overrides=()) -> str:
         if high <= capacity
         else "one robot moves it only where the friction is low"
     )
-    return f"drag {low:.1f}-{high:.1f} N against one robot's capacity {capacity:.1f} N: {verdict}"
+    line = f"drag {low:.1f}-{high:.1f} N against one robot's capacity {capacity:.1f} N: {verdict}"
+    return line, {**numbers, "capacity_n": capacity}

@@ -79,10 +79,10 @@ def write_tables(
                 plots.scale_plot(table, out / f"{table.name}.png")
             if kind == "team":
                 team_plot(table, out / f"{table.name}.png")
-            title = f"{table.title.split(':')[0]}: learning curves, evaluated checkpoints"
+            title = f"{table.title}: learning curves, evaluated checkpoints"
             plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
             for stage in plots.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
-                title = f"{table.title.split(':')[0]}: the {stage} level's own learning curves, evaluated checkpoints"
+                title = f"{table.title}: the {stage} level's own learning curves, evaluated checkpoints"
                 plots.curves_plot(table.curves, out / f"{table.name}_{stage}_curves.png", title, stage)
             tables.append(table)
     return tables, kept
