@@ -140,14 +140,12 @@ def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_
     # final S.R. at 20 s: 70.0 +- 8.2 against 40.0 +- 8.2: a gap of 30 points, spread hypot(8.16, 8.16) = 11.5
     assert (
         "timeout 20 s: the paper's OCB gain in S.R. (57 vs 13) holds here: +30.0 points (the seeds' spread 11.5: "
-        "both arms' stds, in quadrature)"
-        in md
+        "both arms' stds, in quadrature)" in md
     )
     # C.T. 16 s in both arms: no saving, against the paper's 14.9 vs 18.3 s
     assert (
         "the paper's OCB saving in C.T. (14.9 vs 18.3) does not hold here: +0.0 s (the seeds' spread 0.0: both "
-        "arms' stds, in quadrature)"
-        in md
+        "arms' stds, in quadrature)" in md
     )
     assert "timeout 20 s (the paper measured none): Ours 3.00 \u00b1 0.82; Ours w/o OCB 3.00 (1 seed) (2 of 3" in md
     # last fifth: ours gains 1, 2, 3 points -> +2.0 +- 0.8; without OCB 5, 0, 10 -> +5.0 +- 4.1
