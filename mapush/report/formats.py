@@ -58,12 +58,22 @@ class Cell:
         digits = self.digits
         if len(self.values) == 1:  # no spread to show: say it is one seed rather than print a std of 0
             return f"{self.values[0]:.{digits}f} (1 seed)"
-        return f"{np.mean(self.values):.{digits}f} \u00b1 {np.std(self.values):.{digits}f}"
+        return f"{self.mean:.{digits}f} \u00b1 {self.std:.{digits}f}"
+
+    @property
+    def mean(self) -> float | None:
+        """The mean over seeds; None for an empty cell."""
+        return float(np.mean(self.values)) if self.values else None
+
+    @property
+    def std(self) -> float | None:
+        """The population std over seeds; None for an empty cell."""
+        return float(np.std(self.values)) if self.values else None
 
     def record(self) -> dict:
         return {
-            "mean": float(np.mean(self.values)) if self.values else None,
-            "std": float(np.std(self.values)) if self.values else None,
+            "mean": self.mean,
+            "std": self.std,
             "seeds": len(self.values),
             "unreached": self.unreached,
             "made_otherwise": self.otherwise,

@@ -9,7 +9,7 @@ from omegaconf import OmegaConf
 from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
-from mapush.report import plots
+from mapush.report import curves
 from mapush.report.cells import PAPER, collect, matching, searchpaths
 from mapush.report.formats import OVER_SEEDS, Finding, Table
 from mapush.report.physics import team_needed
@@ -44,7 +44,7 @@ def with_yours(results: list[JobResult]) -> dict:
 
 def main_table(results: list[JobResult], variant: str) -> Table:
     """Table II's layout: rows task x metric, columns the methods in the paper's order (then any of yours)."""
-    mine = [r for r in results if r.table == "main" and r.variant == variant]
+    mine = matching(results, table="main", variant=variant)
     paper = with_yours(mine)
     methods = paper["methods"]
     rows, missing, findings = [], [], []
@@ -75,10 +75,10 @@ def main_table(results: list[JobResult], variant: str) -> Table:
     for task in paper["tasks"]:
         findings += _main_findings(mine, paper, task)
     for task, lines in panels.items():
-        findings += filter(None, (plots.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
-    drawn = plots.drawn_stages(mine)
+        findings += filter(None, (curves.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
+    drawn = curves.drawn_stages(mine)
     for task, lines in panels.items():
-        findings += [v for m, r in lines.items() for v in plots.stage_verdicts(f"{m} / {task}", r, drawn)]
+        findings += [v for m, r in lines.items() for v in curves.stage_verdicts(f"{m} / {task}", r, drawn)]
     return Table(
         f"main_{variant}",
         f"Main results ({variant})",
@@ -171,7 +171,7 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
 def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: float) -> list[Finding]:
     """Ours' S.R. (`mean`) and C.T. on one of the paper's objects against the paper's; how fast its successes are."""
     label = paper["task_labels"][task]
-    ct = float(np.mean(collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").values))
+    ct = collect(mine, "completion_time", 1.0, method="ours", task=task, eval="main").mean
     paper_sr, paper_ct = paper["success_rate"][task]["ours"][0], paper["completion_time"][task]["ours"][0]
     text = (
         f"{label}: Ours S.R. {mean:.1f} % vs the paper's {paper_sr:.1f} % ("
@@ -197,10 +197,10 @@ def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: floa
 def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:
     """How many env-steps the mean learning curve of `results` would need to reach `rate_pct`, going on as the last
     stretch of its budget went (`steps_to_reach`), as the end of a finding line, and the number (None: never)."""
-    per_seed = plots.seed_curves(results)
+    per_seed = curves.seed_curves(results)
     if not per_seed:
         return "", None
-    x, rates, _ = plots.mean_curve(per_seed)
+    x, rates, _ = curves.mean_curve(per_seed)
     tail = float(next(r.curve for r in results if r.curve)["rule"]["tail"])
     points = [{"env_steps": float(e), "success_rate": float(v)} for e, v in zip(x, rates, strict=True)]
     needed = steps_to_reach(points, rate_pct / 100, tail)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from mapush.experiments.results import JobResult
-from mapush.report import plots
+from mapush.report import curves
 from mapush.report.cells import PAPER, collect, matching, reach_cell
 from mapush.report.formats import OVER_SEEDS, Finding, Table
 
@@ -13,7 +13,7 @@ from mapush.report.formats import OVER_SEEDS, Finding, Table
 def ocb_table(results: list[JobResult], variant: str) -> Table:
     """The OCB ablation: rows with and without OCB, columns S.R. and C.T. (s) at each timeout."""
     paper = PAPER["ocb_ablation"]
-    mine = [r for r in results if r.table == "ocb_ablation" and r.variant == variant]
+    mine = matching(results, table="ocb_ablation", variant=variant)
     columns, rows, missing = [], [], []
     for name in paper["evals"]:
         columns += [f"S.R. (%), {paper['eval_labels'][name]}", f"C.T. (s), {paper['eval_labels'][name]}"]
@@ -67,8 +67,8 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
             ours, other = with_ocb[column], without[column]
             if len(ours.values) < 2 or len(other.values) < 2:
                 continue
-            gain = float(sign * (np.mean(ours.values) - np.mean(other.values))) + 0.0  # no -0.0
-            spread = float(np.hypot(np.std(ours.values), np.std(other.values)))
+            gain = sign * (ours.mean - other.mean) + 0.0  # no -0.0
+            spread = float(np.hypot(ours.std, other.std))
             p_ours, p_other = (paper[metric][name][m][0] for m in paper["methods"])
             holds = True if gain > spread else (False if gain <= 0 else None)  # None: within the seeds' spread
             verdict = {True: "holds", False: "does not hold", None: "is within the seeds' spread"}[holds]
@@ -81,5 +81,5 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
     if len(columns) > 2 * len(paper["evals"]):  # the env-steps to the curve's success rate, from the curves
         reach = "; ".join(f"{labels[0]} {cells[-1].text()}" for labels, cells in rows)
         findings.append(Finding(f"{columns[-1]} (the paper measured none): {reach}"))
-    findings += filter(None, (plots.budget_verdict(label, results) for label, results in arms.items()))
+    findings += filter(None, (curves.budget_verdict(label, results) for label, results in arms.items()))
     return findings

@@ -7,7 +7,7 @@ import numpy as np
 
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
-from mapush.report import plots
+from mapush.report import curves
 from mapush.report.cells import PAPER, collect, final_cell, matching
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 
@@ -18,7 +18,7 @@ SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 def scale_table(results: list[JobResult], variant: str) -> Table:
     """Scalability: rows the robot counts (the paper's, the study's and any run), columns the hierarchy's S.R. and
     C.T. and the mid level's own S.R. (the paper: a figure)."""
-    mine = [r for r in results if r.table == "scale" and r.variant == variant]
+    mine = matching(results, table="scale", variant=variant)
     counts = sorted(set(PAPER["scale"]["robots"]) | set(SCALE_ROBOTS) | {r.num_agents for r in mine})
     rows, missing = [], []
     for n in counts:
@@ -35,7 +35,7 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         rows.append(([str(n)], cells))
     findings = []
     marked = {int(labels[0]) for labels, cells in rows if any(c.otherwise for c in cells)}  # an earlier recipe's
-    measured = [(np.mean(c[0].values), np.std(c[0].values), labels[0]) for labels, c in rows if c[0].values]
+    measured = [(c[0].mean, c[0].std, labels[0]) for labels, c in rows if c[0].values]
     if measured:
         top = max(m[0] for m in measured)
         best = [f"{n}{_mark(int(n), marked)} ({mean:.1f} \u00b1 {std:.1f} % S.R.)" for mean, std, n in measured
@@ -45,9 +45,9 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         findings.append(Finding(text, numbers={f"{m[2]}_robots_sr": float(m[0]) for m in measured}))
     findings += _scale_paper_findings(rows, marked) + _reference_mid_finding(rows)
     lines = {counted(n, "robot"): matching(mine, num_agents=n) for n in counts}
-    findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
-    drawn = plots.drawn_stages(mine)
-    findings += [v for label, r in lines.items() for v in plots.stage_verdicts(label, r, drawn)]
+    findings += filter(None, (curves.budget_verdict(label, r) for label, r in lines.items()))
+    drawn = curves.drawn_stages(mine)
+    findings += [v for label, r in lines.items() for v in curves.stage_verdicts(label, r, drawn)]
     return Table(
         f"scale_{variant}",
         f"Scalability, cylinder ({variant})",
@@ -75,11 +75,11 @@ def _scale_paper_findings(rows: list, marked: set[int]) -> list[Finding]:
     figure = PAPER["scale"]["robots"]
 
     def means(column: int) -> dict[int, float]:
-        return {int(labels[0]): float(np.mean(c[column].values)) for labels, c in rows
+        return {int(labels[0]): c[column].mean for labels, c in rows
                 if c[column].values and int(labels[0]) in figure}  # fmt: skip
 
     def spread(column: int, n: int) -> float:
-        return next(float(np.std(c[column].values)) for labels, c in rows if int(labels[0]) == n)
+        return next(c[column].std for labels, c in rows if int(labels[0]) == n)
 
     ct = means(1)
 

@@ -16,13 +16,22 @@ from pathlib import Path
 
 from mapush.atomic import write_json, write_text
 from mapush.experiments.archive import load_results, made_otherwise_all
-from mapush.report import plots
+from mapush.report import curves, plots
+from mapush.report.cells import matching
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
 from mapush.report.main_table import main_table
 from mapush.report.ocb_table import ocb_table
 from mapush.report.scale_table import scale_table
-from mapush.report.team_table import team_plot, team_table
+from mapush.report.team_table import team_table
+
+CHECKED = "jobs_checked.json"
+"""What the last `mapush tables` into a dir found of each archived job against its experiment then (kept there, so
+that the next finds it again without composing the job's configs while nothing it depends on changed)."""
+BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table, "team": team_table}
+"""Each table `mapush tables` writes, by the `table` its experiment names."""
+SUMMARY_PLOTS = {"scale": plots.scale_plot, "team": plots.team_plot}
+"""The tables drawn as a figure of their own (`<table>.png`) besides their learning curves."""
 
 
 def filled_cells(table: Table) -> int:
@@ -53,7 +62,6 @@ def write_tables(
     out.mkdir(parents=True, exist_ok=True)
     made_otherwise_all(results, memo=out / CHECKED)
     variants = sorted({r.variant for r in results} | {"quick"})
-    out.mkdir(parents=True, exist_ok=True)
     tables, kept = [], []
     for variant in variants:
         present = {r.table for r in results if r.variant == variant}
@@ -65,7 +73,7 @@ def write_tables(
             if earlier > filled_cells(table) and not overwrite:
                 kept.append((table, earlier))
                 continue
-            behind = [r for r in results if r.table == kind and r.variant == variant]
+            behind = matching(results, table=kind, variant=variant)
             table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
             table.cost = measured_cost(behind)
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
@@ -75,21 +83,12 @@ def write_tables(
             write_text(out / f"{table.name}.tex", latex(table))
             write_text(out / f"{table.name}.csv", csv_text(table))
             write_json(out / f"{table.name}.json", sidecar(table))
-            if kind == "scale":
-                plots.scale_plot(table, out / f"{table.name}.png")
-            if kind == "team":
-                team_plot(table, out / f"{table.name}.png")
+            if kind in SUMMARY_PLOTS:
+                SUMMARY_PLOTS[kind](table, out / f"{table.name}.png")
             title = f"{table.title}: learning curves, evaluated checkpoints"
             plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
-            for stage in plots.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
+            for stage in curves.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
                 title = f"{table.title}: the {stage} level's own learning curves, evaluated checkpoints"
                 plots.curves_plot(table.curves, out / f"{table.name}_{stage}_curves.png", title, stage)
             tables.append(table)
     return tables, kept
-
-
-CHECKED = "jobs_checked.json"
-"""What the last `mapush tables` into a dir found of each archived job against its experiment then (kept there, so
-that the next finds it again without composing the job's configs while nothing it depends on changed)."""
-BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table, "team": team_table}
-"""Each table `mapush tables` writes, by the `table` its experiment names."""

@@ -5,14 +5,10 @@ at once; well below 1, fewer robots could."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import numpy as np
-
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
-from mapush.report import plots
-from mapush.report.cells import collect
+from mapush.report import curves
+from mapush.report.cells import collect, matching
 from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import object_drag, one_robot_capacity
 
@@ -40,7 +36,7 @@ def capacity_margin(task: str, mass: float, robots: int, capacity: float | None)
 
 def team_table(results: list[JobResult], variant: str) -> Table:
     """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin."""
-    mine = [r for r in results if r.table == "team" and r.variant == variant]
+    mine = matching(results, table="team", variant=variant)
     masses = eval_masses()
     capacity = one_robot_capacity()
     rows, missing, lines = [], [], {}
@@ -58,7 +54,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses)
-    findings += filter(None, (plots.budget_verdict(label, r) for label, r in lines.items()))
+    findings += filter(None, (curves.budget_verdict(label, r) for label, r in lines.items()))
     return Table(
         f"team_{variant}",
         f"When is a team needed? Mid level, S.R. (%) by object mass ({variant})",
@@ -92,7 +88,7 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
             done = [(n, cells[k]) for n, cells in team_rows if cells[k].values]
             if not done:
                 continue
-            enough = sorted((n, c) for n, c in done if np.mean(c.values) >= 50.0)  # the fewest first
+            enough = sorted(((n, c) for n, c in done if c.mean >= 50.0), key=lambda nc: nc[0])  # the fewest first
             parts.append(
                 f"{mass:g} kg: {enough[0][0]} ({enough[0][1].note})" if enough else f"{mass:g} kg: none of {len(done)}"
             )
@@ -102,33 +98,3 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
             found.append(Finding(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts),
                                  numbers=fewest))  # fmt: skip
     return found
-
-
-def team_plot(table: Table, path: Path) -> None:
-    """One heatmap per object: robots (rows) x mass (columns), coloured by S.R., each cell labelled with its S.R.
-    and capacity margin."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    tasks = list(dict.fromkeys(labels[0] for labels, _ in table.rows))
-    fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.6), squeeze=False)
-    for ax, task in zip(axes[0], tasks, strict=True):
-        rows = [(int(labels[1]), cells) for labels, cells in table.rows if labels[0] == task]
-        grid = np.array([[np.mean(c.values) if c.values else np.nan for c in cells] for _, cells in rows])
-        image = ax.imshow(grid, vmin=0, vmax=100, cmap="viridis", origin="lower", aspect="auto")
-        for i, (_, cells) in enumerate(rows):
-            for j, cell in enumerate(cells):
-                value = "n/a" if not cell.values else f"{np.mean(cell.values):.0f} %"
-                ax.text(j, i, f"{value}\n{cell.note}", ha="center", va="center", fontsize=7, color="w")
-        ax.set_xticks(range(len(table.columns)), table.columns)
-        ax.set_yticks(range(len(rows)), [str(n) for n, _ in rows])
-        ax.set_xlabel("object mass")
-        ax.set_ylabel("robots")
-        ax.set_title(task)
-        fig.colorbar(image, ax=ax, label="S.R. (%)")
-    fig.suptitle(table.title, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
