@@ -121,14 +121,20 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Findin
         return []
     mean, label = float(np.mean(ours)), paper["task_labels"][task]
     lines = _against_the_paper(mine, paper, task, mean) if task in paper["success_rate"] else []  # not a task of yours
-    beaten = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) >= mean]
-    below = [paper["labels"][m] for m, v in sr.items() if m != "ours" and v and np.mean(v) < mean]
+    yours = {m: v for m, v in sr.items() if v and m not in PAPER["main"]["methods"]}
+    baselines = {m: v for m, v in sr.items() if m != "ours" and v and m in PAPER["main"]["methods"]}  # the paper's
+    beaten = [paper["labels"][m] for m, v in baselines.items() if np.mean(v) >= mean]
+    below = [paper["labels"][m] for m, v in baselines.items() if np.mean(v) < mean]
     if beaten or below:
         text = (
             f"{label}: baselines below Ours: {', '.join(below) or 'none'}; at or above: {', '.join(beaten) or 'none'}"
         )
-        numbers = {paper["labels"][m]: float(np.mean(v)) for m, v in sr.items() if v}
+        numbers = {paper["labels"][m]: float(np.mean(v)) for m, v in sr.items() if v and m not in yours}
         lines.append(Finding(text, not beaten, numbers))  # the paper's: Ours above every baseline
+    if yours:  # no claim of the paper's: how each method of yours stands against Ours
+        text = "; ".join(f"{paper['labels'][m]} {np.mean(v):.1f} %" for m, v in yours.items())
+        numbers = {paper["labels"][m]: float(np.mean(v)) for m, v in yours.items()}
+        lines.append(Finding(f"{label}: methods of yours, against Ours' {mean:.1f} %: {text}", None, numbers))
     if sr.get("sa"):
         sa = float(np.mean(sr["sa"]))
         verdict = "below" if sa < mean else "at or above"

@@ -532,3 +532,10 @@ def test_a_method_and_a_task_of_yours_get_their_column_and_rows_without_paper_nu
     assert wide[5].values == [70.0] and wide[5].paper is None  # Ours on a task the paper never ran
     assert not any("wide_box: Ours S.R." in str(f) for f in table.findings)  # nothing of the paper's to hold against
     assert any(str(f).startswith("Cuboid: Ours S.R. 80.0 % vs the paper's 77.5 %") for f in table.findings)
+    # a method of yours is no baseline of the paper's claim: at or above Ours, it is told apart, claiming nothing
+    better = main_table([job("ours", "cuboid", 0.8), job("sa", "cuboid", 0.5), job("mine", "cuboid", 0.9, "Mine")],
+                        "quick")  # fmt: skip
+    found = {str(f).partition(": ")[2].split(":")[0]: f for f in better.findings if str(f).startswith("Cuboid: ")}
+    assert found["baselines below Ours"].holds is True and "Mine" not in str(found["baselines below Ours"])
+    assert str(found["methods of yours, against Ours' 80.0 %"]).endswith(": Mine 90.0 %")
+    assert found["methods of yours, against Ours' 80.0 %"].holds is None
