@@ -116,7 +116,7 @@ def test_without_config_the_measured_tracker_goes_beside_the_record_and_the_pack
 
 
 def test_two_seeds_measure_the_tracker_alike(tmp_path):
-    """The repeatability check of the issue: two seeds' capacities within 10 % (here the robot is the tracker)."""
+    """The repeatability target: two seeds' capacities within 10 % (here the robot is the tracker)."""
     a, b = (capacity.push_sweep(["lowlevel=tracker"], 2, seed) for seed in (0, 1))
     ca, cb = capacity.fit_capacity(a["drag"], a["speed"]), capacity.fit_capacity(b["drag"], b["speed"])
     assert abs(ca - cb) <= 0.1 * max(ca, cb)
