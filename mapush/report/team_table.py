@@ -50,6 +50,8 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 margin = capacity_margin(task, mass, n, capacity)
                 cell.note = f"margin {margin:.2f}" if margin is not None else ""
                 cells.append(cell)
+                if jobs and not cell.values:
+                    missing.append(f"{task} / {counted(n, 'robot')} / {mass:g} kg: no job evaluated it ({name})")
             if not jobs:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))

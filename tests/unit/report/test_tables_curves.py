@@ -456,6 +456,9 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     assert cells[("cuboid", "2")][2].text() == f"80.0 \u00b1 0.0 [margin {margin:.2f}]"
     assert cells[("cylinder", "3")][0].text().startswith("\u2014")  # no job: an empty cell
     assert "cylinder / 1 robot: no finished job" in table.missing
+    partial = [dataclasses.replace(r, evals={k: v for k, v in r.evals.items() if k != "m64"}) if r.num_agents == 4
+               else r for r in results]  # fmt: skip
+    assert "cuboid / 4 robots / 64 kg: no job evaluated it (m64)" in team_table(partial, "quick").missing
     found = next(f for f in table.findings if str(f).startswith("cuboid:"))
     assert found.numbers == {"2_kg_robots": 1, "8_kg_robots": 1, "24_kg_robots": 2}  # 64 kg: none of the four
     assert str(found).startswith("cuboid: the fewest robots reaching 50 % S.R. by mass: 2 kg: 1 (margin ")
