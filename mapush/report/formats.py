@@ -93,7 +93,8 @@ def _decimals(number: float) -> int:
 class Finding:
     """One thing a table says about its cells, as data: `text` (the statement with its numbers, as the Markdown
     lists it), whether it `holds` (True or False for a claim, the paper's or a budget rule's; None for a reading that
-    claims nothing) and the `numbers` it rests on, by name (the sidecar JSON keeps all three)."""
+    claims nothing, or a comparison within the seeds' spread) and the `numbers` it rests on, by name (the sidecar
+    JSON keeps all three). The main table compares means: its claims ignore the spread."""
 
     text: str
     holds: bool | None = None
