@@ -8,7 +8,7 @@ import yaml
 
 from mapush.config import group_file
 from mapush.experiments.results import JobResult, searchpath_overrides
-from mapush.report import curves
+from mapush.report import curve_findings
 from mapush.report.formats import SIGNIFICANT, Cell
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
@@ -67,5 +67,5 @@ def _gathered(results: list[JobResult], value, concerned, scale: float) -> Cell:
 
 def reach_cell(results: list[JobResult]) -> Cell:
     """Env-steps (M) to the curve's `reach` success rate, over the seeds of `results`."""
-    values, sources, unreached = curves.reach_values(results)
+    values, sources, unreached = curve_findings.reach_values(results)
     return Cell(values, sources, digits=2, unreached=unreached)

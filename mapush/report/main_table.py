@@ -9,7 +9,7 @@ from omegaconf import OmegaConf
 from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
-from mapush.report import curves
+from mapush.report import curve_findings
 from mapush.report.cells import PAPER, collect, matching, searchpaths
 from mapush.report.formats import OVER_SEEDS, Finding, Table
 from mapush.report.physics import team_needed
@@ -75,10 +75,10 @@ def main_table(results: list[JobResult], variant: str) -> Table:
     for task in paper["tasks"]:
         findings += _main_findings(mine, paper, task)
     for task, lines in panels.items():
-        findings += filter(None, (curves.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
-    drawn = curves.drawn_stages(mine)
+        findings += filter(None, (curve_findings.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
+    drawn = curve_findings.drawn_stages(mine)
     for task, lines in panels.items():
-        findings += [v for m, r in lines.items() for v in curves.stage_verdicts(f"{m} / {task}", r, drawn)]
+        findings += [v for m, r in lines.items() for v in curve_findings.stage_verdicts(f"{m} / {task}", r, drawn)]
     return Table(
         f"main_{variant}",
         f"Main results ({variant})",
@@ -225,10 +225,10 @@ def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: floa
 def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:
     """How many env-steps the mean learning curve of `results` would need to reach `rate_pct`, going on as the last
     stretch of its budget went (`steps_to_reach`), as the end of a finding line, and the number (None: never)."""
-    per_seed = curves.seed_curves(results)
+    per_seed = curve_findings.seed_curves(results)
     if not per_seed:
         return "", None
-    x, rates, _ = curves.mean_curve(per_seed)
+    x, rates, _ = curve_findings.mean_curve(per_seed)
     tail = float(next(r.curve for r in results if r.curve)["rule"]["tail"])
     points = [{"env_steps": float(e), "success_rate": float(v)} for e, v in zip(x, rates, strict=True)]
     needed = steps_to_reach(points, rate_pct / 100, tail)

@@ -1,5 +1,5 @@
 """The tables' plots: learning curves (`curves_plot`), the scalability study's robot counts (`scale_plot`) and the
-team study's heatmaps (`team_plot`); what the curves say is read in `curves.py`."""
+team study's heatmaps (`team_plot`); what the curves say is read in `curve_findings.py`."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from mapush.experiments.results import JobResult
-from mapush.report.curves import curve_made_otherwise, mean_curve, seed_curves
+from mapush.report.curve_findings import curve_made_otherwise, mean_curve, seed_curves
 from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Table
 
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
-from mapush.report import curves
+from mapush.report import curve_findings
 from mapush.report.cells import PAPER, collect, final_cell, matching
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 
@@ -45,9 +45,9 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         findings.append(Finding(text, numbers={f"{m[2]}_robots_sr": float(m[0]) for m in measured}))
     findings += _scale_paper_findings(rows, marked) + _reference_mid_finding(rows)
     lines = {counted(n, "robot"): matching(mine, num_agents=n) for n in counts}
-    findings += filter(None, (curves.budget_verdict(label, r) for label, r in lines.items()))
-    drawn = curves.drawn_stages(mine)
-    findings += [v for label, r in lines.items() for v in curves.stage_verdicts(label, r, drawn)]
+    findings += filter(None, (curve_findings.budget_verdict(label, r) for label, r in lines.items()))
+    drawn = curve_findings.drawn_stages(mine)
+    findings += [v for label, r in lines.items() for v in curve_findings.stage_verdicts(label, r, drawn)]
     return Table(
         f"scale_{variant}",
         f"Scalability, cylinder ({variant})",

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from mapush.atomic import write_json, write_text
 from mapush.experiments.archive import load_results, made_otherwise_all
-from mapush.report import curves, plots
+from mapush.report import curve_findings, plots
 from mapush.report.cells import matching
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
@@ -87,7 +87,7 @@ def write_tables(
                 SUMMARY_PLOTS[kind](table, out / f"{table.name}.png")
             title = f"{table.title}: learning curves, evaluated checkpoints"
             plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
-            for stage in curves.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
+            for stage in curve_findings.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
                 title = f"{table.title}: the {stage} level's own learning curves, evaluated checkpoints"
                 plots.curves_plot(table.curves, out / f"{table.name}_{stage}_curves.png", title, stage)
             tables.append(table)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
-from mapush.report import curves
+from mapush.report import curve_findings
 from mapush.report.cells import collect, matching
 from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import object_drag, one_robot_capacity
@@ -56,7 +56,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses)
-    findings += filter(None, (curves.budget_verdict(label, r) for label, r in lines.items()))
+    findings += filter(None, (curve_findings.budget_verdict(label, r) for label, r in lines.items()))
     return Table(
         f"team_{variant}",
         f"When is a team needed? Mid level, S.R. (%) by object mass ({variant})",

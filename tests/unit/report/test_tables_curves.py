@@ -77,7 +77,7 @@ def test_steps_to_reach_goes_on_as_the_last_stretch_of_the_curve_went():
 
 
 def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curve():
-    from mapush.report.curves import budget_verdict
+    from mapush.report.curve_findings import budget_verdict
 
     def result(rates):
         points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
@@ -99,7 +99,7 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
 def test_a_gain_on_the_rules_bound_is_judged_as_printed_not_by_its_float32_noise():
     import numpy as np
 
-    from mapush.report.curves import budget_verdict
+    from mapush.report.curve_findings import budget_verdict
 
     def result(rates):  # the rates as result.json holds them: float32 means
         points = [{"env_steps": (k + 1) * 1e6, "success_rate": float(np.float32(sr))} for k, sr in enumerate(rates)]
@@ -115,7 +115,7 @@ def test_a_gain_on_the_rules_bound_is_judged_as_printed_not_by_its_float32_noise
 
 
 def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
-    from mapush.report.curves import budget_verdict
+    from mapush.report.curve_findings import budget_verdict
 
     def result(rates):
         points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
