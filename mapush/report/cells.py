@@ -9,7 +9,7 @@ import yaml
 from mapush.config import group_file
 from mapush.experiments.results import JobResult, searchpath_overrides
 from mapush.report import curve_findings
-from mapush.report.formats import SIGNIFICANT, Cell
+from mapush.report.formats import Cell, significant
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
 """The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; each table's `labels`
@@ -58,7 +58,7 @@ def _gathered(results: list[JobResult], value, concerned, scale: float) -> Cell:
         found = value(r)
         if found is None:
             continue
-        cell.values.append(float(f"{scale * found:.{SIGNIFICANT}g}"))
+        cell.values.append(significant(scale * float(found)))
         cell.sources.append(r.job_dir)
         change = r.made_otherwise
         cell.otherwise += change is not None and concerned(r, change)

@@ -105,6 +105,13 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     return Finding(text, gain < max_gain, numbers)
 
 
+def budget_findings(lines: dict[str, list[JobResult]], stages: list[str] = ()) -> list[Finding]:
+    """Every table's budget checks: `budget_verdict` of each labelled group of results that has curves, then
+    `stage_verdicts` of each over the earlier `stages` (`drawn_stages`)."""
+    found = [v for v in (budget_verdict(label, results) for label, results in lines.items()) if v is not None]
+    return found + [v for label, results in lines.items() for v in stage_verdicts(label, results, stages)]
+
+
 def stage_verdicts(label: str, results: list[JobResult], stages: list[str]) -> list[Finding]:
     """`budget_verdict` of each of `stages` that `results` trained before their evaluated stage (the last they
     name), by the stage's own curves, each saying how many of those jobs lack one (their runs were not here)."""

@@ -186,14 +186,14 @@ def csv_text(table: Table) -> str:
     for labels, cells in table.rows:
         for column, cell in zip(table.columns, cells, strict=True):
             rec = cell.record()
-            numbers = [_csv_number(rec[key]) for key in keys]
+            numbers = [significant(rec[key]) for key in keys]
             paper = rec["paper"] or [None, None]
             writer.writerow([" / ".join(labels), column, *numbers, *paper, ";".join(rec["sources"])])
     return out.getvalue()
 
 
-def _csv_number(value):
-    """A float as its `SIGNIFICANT` digits (a std of 8.640987597877148 is 8.64099), anything else as it is."""
+def significant(value):
+    """A float kept to `SIGNIFICANT` digits (a std of 8.640987597877148 is 8.64099), anything else as it is."""
     return float(f"{value:.{SIGNIFICANT}g}") if isinstance(value, float) else value
 
 

@@ -74,11 +74,8 @@ def main_table(results: list[JobResult], variant: str) -> Table:
     }
     for task in paper["tasks"]:
         findings += _main_findings(mine, paper, task)
-    for task, lines in panels.items():
-        findings += filter(None, (curve_findings.budget_verdict(f"{m} / {task}", r) for m, r in lines.items()))
-    drawn = curve_findings.drawn_stages(mine)
-    for task, lines in panels.items():
-        findings += [v for m, r in lines.items() for v in curve_findings.stage_verdicts(f"{m} / {task}", r, drawn)]
+    labelled = {f"{m} / {task}": r for task, lines in panels.items() for m, r in lines.items()}
+    findings += curve_findings.budget_findings(labelled, curve_findings.drawn_stages(mine))
     return Table(
         f"main_{variant}",
         f"Main results ({variant})",

@@ -81,5 +81,5 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
     if len(columns) > 2 * len(paper["evals"]):  # the env-steps to the curve's success rate, from the curves
         reach = "; ".join(f"{labels[0]} {cells[-1].text()}" for labels, cells in rows)
         findings.append(Finding(f"{columns[-1]} (the paper measured none): {reach}"))
-    findings += filter(None, (curve_findings.budget_verdict(label, results) for label, results in arms.items()))
+    findings += curve_findings.budget_findings(arms)
     return findings

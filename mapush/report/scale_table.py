@@ -45,9 +45,7 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         findings.append(Finding(text, numbers={f"{m[2]}_robots_sr": float(m[0]) for m in measured}))
     findings += _scale_paper_findings(rows, marked) + _reference_mid_finding(rows)
     lines = {counted(n, "robot"): matching(mine, num_agents=n) for n in counts}
-    findings += filter(None, (curve_findings.budget_verdict(label, r) for label, r in lines.items()))
-    drawn = curve_findings.drawn_stages(mine)
-    findings += [v for label, r in lines.items() for v in curve_findings.stage_verdicts(label, r, drawn)]
+    findings += curve_findings.budget_findings(lines, curve_findings.drawn_stages(mine))
     return Table(
         f"scale_{variant}",
         f"Scalability, cylinder ({variant})",

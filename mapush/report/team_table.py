@@ -56,7 +56,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses)
-    findings += filter(None, (curve_findings.budget_verdict(label, r) for label, r in lines.items()))
+    findings += curve_findings.budget_findings(lines)
     return Table(
         f"team_{variant}",
         f"When is a team needed? Mid level, S.R. (%) by object mass ({variant})",
