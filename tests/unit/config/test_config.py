@@ -144,12 +144,22 @@ def test_the_object_friction_follows_the_floor_and_yields_to_a_command_line_valu
     assert typed == [0.5, 0.6]
 
 
-def test_a_term_a_run_saved_stays_as_the_run_saved_it_not_merged_with_todays():
-    """The shipped cuboid hierarchy was made when robot_collision took the centre distance; today's default takes
-    a footprint tolerance. Its own term, params and all, is what it loads with."""
+def test_a_term_a_run_saved_stays_as_the_run_saved_it_not_merged_with_todays(tmp_path):
+    """Runs made when robot_collision took the centre distance saved that term; today's default takes a footprint
+    tolerance. A run loads with its own term, params and all, not with today's merged in."""
+    from omegaconf import OmegaConf
+
     from mapush.config import load_run_config
 
-    cfg = load_run_config(REPO / "mapush" / "policies" / "cuboid" / "mid")
-    term = cfg.level.exceptions.robot_collision
+    saved = OmegaConf.load(REPO / "mapush" / "policies" / "cuboid" / "mid" / "config.yaml")
+    saved.level.exceptions.robot_collision = {
+        "func": "mapush.envs.terminations:robot_collision",
+        "params": {"distance_m": 0.25},
+    }
+    OmegaConf.save(saved, tmp_path / "config.yaml")
+    today = compose_config(["level=mid"]).level.exceptions.robot_collision
+    assert today.func != "mapush.envs.terminations:robot_collision"  # else this test checks nothing
+
+    term = load_run_config(tmp_path).level.exceptions.robot_collision
     assert term.func == "mapush.envs.terminations:robot_collision"
     assert dict(term.params) == {"distance_m": 0.25}
