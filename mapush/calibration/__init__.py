@@ -2,5 +2,6 @@
 
 `lags.py` (how fast it follows a command), `capacity.py` (how hard it pushes, what load topples it), `run.py`
 (the experiments in order, the fits written into `conf/lowlevel/tracker.yaml`, the record and its plot);
-`reversals.py` (how often it falls under reversing commands: measured by `mapush probe reversals`, not yet fitted).
+`reversals.py` (how often it falls under reversing commands: measured by `mapush probe reversals`, not yet fitted);
+`squeeze.py` (whether it falls squeezed between the object and its teammates: `mapush probe squeeze`).
 """

@@ -61,13 +61,13 @@ OFFSET_M, HEADING_RAD = 0.2, 0.1
 G = 9.81
 
 
-def _starts(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def starts(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """n lateral offsets (m) and heading errors (rad), drawn from `seed`."""
     rng = np.random.default_rng(seed)
     return rng.uniform(-OFFSET_M, OFFSET_M, n), rng.uniform(-HEADING_RAD, HEADING_RAD, n)
 
 
-def _behind_cuboid(cfg: dict, offset: np.ndarray, heading: np.ndarray) -> dict[str, torch.Tensor]:
+def behind_cuboid(cfg: dict, offset: np.ndarray, heading: np.ndarray) -> dict[str, torch.Tensor]:
     """Robots right behind the object's -x face (2 cm between), facing +x up to `heading`, shifted by `offset`."""
     hull = np.asarray(object_hull(cfg["task"]["object"]))
     n = len(offset)
@@ -88,13 +88,13 @@ def push_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.nd
     `drag` (E,) N, `speed` (E,) the object's steady speed, m/s, `fell` (E,) whether the robot fell."""
     cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
     drag = np.repeat(DRAG_GRID, repeats)
-    offset, heading = _starts(len(drag), seed)
+    offset, heading = starts(len(drag), seed)
 
     def set_drag(sim) -> None:
         sim.set_object_mass(np.arange(len(drag)), drag / (DRAG_FRICTION * G))
 
     commands = np.tile([PUSH_SPEED, 0.0, 0.0], (len(drag), 1))
-    run = run_steps(cfg, commands, _behind_cuboid(cfg, offset, heading), SETTLE_S, PUSH_S, configure=set_drag)
+    run = run_steps(cfg, commands, behind_cuboid(cfg, offset, heading), SETTLE_S, PUSH_S, configure=set_drag)
     tail = max(1, round(STEADY_S / run["dt"]))
     return {
         "drag": drag,
@@ -110,7 +110,7 @@ def fall_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.nd
     for `FALL_WINDOW_S`: `load` (E,) N and `fell` (E,)."""
     cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
     load = np.repeat(LOAD_GRID, repeats)
-    _, heading = _starts(len(load), seed + 1)
+    _, heading = starts(len(load), seed + 1)
     layout = {
         "object_xy": torch.tensor(PARKED_XY).expand(len(load), 2).clone(),
         "object_yaw": torch.zeros(len(load)),

@@ -42,21 +42,23 @@ def run_steps(
     cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None
 ) -> dict[str, np.ndarray]:
     """Stand for `settle_s`, then hold `commands` (E, 3), or follow `commands(sim)`, called before every step for
-    that step's (E, 3), for `duration_s`; body-frame robot velocities (E, T, 3), object planar speed (E, T) and
-    robot tilt (E, T) at every policy step of the hold. E is the layout's. `configure(sim)` may edit per-env model
-    values first; `during(sim)` runs before every step of the hold (e.g. to apply a load)."""
-    n = len(layout["object_xy"])
+    that step's (E, 3), for `duration_s`, every robot of an env told the same; robot 0's body-frame velocities
+    (E, T, 3), object planar speed (E, T) and every robot's tilt (E, T, A) at every policy step of the hold, `tilt`
+    (E, T) the most tilted robot's.
+    E is the layout's. `configure(sim)` may edit per-env model values first; `during(sim)` runs before every step of
+    the hold (e.g. to apply a load)."""
+    n, agents = len(layout["object_xy"]), int(cfg["task"]["num_agents"])
     backend = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
     sim = PushSim(cfg["sim"], cfg["task"], backend, n)
     if configure is not None:
         configure(sim)
     sim.reset(np.arange(n), layout)
-    zero = torch.zeros(n, 1, 3)
+    zero = torch.zeros(n, agents, 3)
     for _ in range(round(settle_s / sim.dt)):
         sim.step(zero)
 
     def as_input(values: np.ndarray) -> torch.Tensor:
-        return torch.from_numpy(values).float().unsqueeze(1)
+        return torch.from_numpy(values).float().unsqueeze(1).expand(n, agents, 3)
 
     held = None if callable(commands) else as_input(commands)
     robot_vel, object_speed, tilt = [], [], []
@@ -70,11 +72,12 @@ def run_steps(
         body = torch.cat([rotate(vel[:, :2], yaw, inverse=True), vel[:, 2:3]], -1)
         robot_vel.append(body.numpy())
         object_speed.append(torch.linalg.vector_norm(state.object_vel[:, :2], dim=-1).numpy())
-        tilt.append(state.robot_tilt[:, 0].numpy())
+        tilt.append(state.robot_tilt.numpy())
     return {
         "robot_vel": np.stack(robot_vel, 1),
         "object_speed": np.stack(object_speed, 1),
-        "tilt": np.stack(tilt, 1),
+        "tilt": np.stack(tilt, 1).max(-1),
+        "tilts": np.stack(tilt, 1),
         "dt": sim.dt,
     }
 

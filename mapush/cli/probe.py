@@ -1,6 +1,7 @@
 """`mapush probe`: what a trained level does inside its evaluation's episodes (commands, falls, progress), how
 long the paths are that the high level is evaluated on (paths), and how often a low level's robot falls under
-reversing commands (reversals). The figures come from `mapush.eval.probes` and `mapush.calibration.reversals`."""
+reversing commands (reversals) or squeezed by its teammates (squeeze). The figures come from `mapush.eval.probes`,
+`mapush.calibration.reversals` and `mapush.calibration.squeeze`."""
 
 from __future__ import annotations
 
@@ -113,3 +114,19 @@ def reversals(
     from mapush.calibration.reversals import print_reversals
 
     print_reversals(list(ctx.args) or ["lowlevel=go1"], envs, seconds, seed)
+
+
+@probe_app.command(context_settings=PASS_THROUGH)
+def squeeze(
+    ctx: typer.Context,
+    envs: int = typer.Option(24, "--envs", help="Starts per layout."),
+    seed: int = typer.Option(0, "--seed", help="Draws the starts (a lateral offset and a heading error each)."),
+) -> None:
+    """How often a low level's robot falls squeezed between the object and its teammates' pushes: alone against an
+    immovable cuboid, with one or two teammates in a line behind it, and with a teammate across the object (overrides
+    choose the robot; default lowlevel=go1)."""
+    if envs < 1:
+        raise BadInput(f"--envs {envs}; valid: 1 or more")
+    from mapush.calibration.squeeze import print_squeeze
+
+    print_squeeze(list(ctx.args) or ["lowlevel=go1"], envs, seed)

@@ -51,6 +51,20 @@ def test_a_reversal_probe_of_no_robots_is_refused(cli):
     assert_bad_input(cli("probe", "reversals", "--envs", "0"), "--envs 0", "valid: --envs 1 or more")
 
 
+def test_a_squeeze_probe_of_no_robots_is_refused(cli):
+    assert_bad_input(cli("probe", "squeeze", "--envs", "0"), "--envs 0", "valid: 1 or more")
+
+
+@pytest.mark.slow
+def test_the_squeeze_probe_prints_a_row_per_layout(cli):
+    from mapush.calibration.squeeze import LAYOUTS
+
+    proc = cli("probe", "squeeze", "--envs", "1", "lowlevel=tracker", "sim.nthread=1")
+    assert proc.returncode == 0, proc.stderr
+    rows = proc.stdout.strip().splitlines()[-len(LAYOUTS) :]
+    assert [row.split()[-1] for row in rows] == ["0.00"] * len(LAYOUTS)  # the shipped tracker falls in none
+
+
 @pytest.mark.slow
 def test_the_fall_probe_lets_episodes_go_on_after_a_fall(cli):
     shipped = Path(mapush.__file__).parent / "policies" / "cuboid" / "high"  # 1 s episodes on Go1s: no one falls

@@ -1,0 +1,102 @@
+"""Falls under a squeeze: whether a robot pinned between the object and its teammates' pushes topples.
+
+Every robot walks into the cuboid at `PUSH_SPEED` for `SQUEEZE_S`, in each of these layouts (robot 0 first):
+- *alone*: right behind the cuboid, held immovable (`WALL_DRAG`, far beyond any robot's capacity): the robot bears
+  its own push and nothing more, the reference;
+- *run-up*: the same, from `RUN_UP_M` further back: the robot meets the object at full speed, an impact;
+- *in a line*: the same, with one or two teammates in a line behind it, each walking into the back of the one
+  ahead: the front robot is squeezed between the object and its teammates' pushes;
+- *across*: one teammate on the cuboid's far face, walking the other way, the cuboid at `ACROSS_DRAG` (the cuboid
+  task's own): each robot bears the other's push through the object, as at the two sides of the cylinder;
+- *2 against 1*: two teammates side by side on the far face: they outpush the robot, which is shoved back.
+
+A robot that tilts beyond the pushing levels' `robot_tilt` threshold has fallen. The tracker's fall model reads the
+net planar contact force on it, in which pushes from opposite sides cancel (docs/fidelity.md, "Known open
+deviations"); this measures whether the Go1 falls there, so the two can be compared (`mapush probe squeeze`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mapush.calibration.capacity import DRAG_FRICTION, FALL_TILT, PUSH_SPEED, SETTLE_S, G, behind_cuboid, starts
+from mapush.calibration.lags import run_steps
+from mapush.config import compose_config, to_plain
+
+LAYOUTS = ("alone", "run-up", "line of 2", "line of 3", "across", "2 against 1")
+"""The squeezes measured, from none to the most robots bearing on one."""
+WALL_DRAG = 400.0
+"""N; the cuboid's drag in the line layouts: about 8 times a Go1's push capacity (52 N), so it does not move."""
+ACROSS_DRAG = 12.0
+"""N; the cuboid's drag across: its task's (4 kg at 0.3 friction; docs/fidelity.md)."""
+SQUEEZE_S = 6.0
+"""s; how long each squeeze lasts."""
+RUN_UP_M = 1.0
+"""m; how much further back the run-up starts: the Go1 reaches a 0.5 m/s step within 0.5 s and 0.2 m
+(results/calibration/), so it meets the object at full speed."""
+SIDE_BY_SIDE = torch.tensor([0.0, 0.25])
+"""m; the two robots of "2 against 1" stand this far to either side of the far face's centre line (0.5 m apart,
+a robot's footprint is 0.28 m wide; the cuboid's face is 1.2 m)."""
+GAP_M = 0.02
+"""m; between the object and the first robot, and between robots in a line."""
+
+
+def _layout(cfg: dict, name: str, n: int, seed: int) -> tuple[dict[str, torch.Tensor], float]:
+    """The robots of layout `name` in n envs (starts drawn from `seed`), and the cuboid's drag (N)."""
+    offset, heading = starts(n, seed)
+    layout = behind_cuboid(cfg, offset, heading)
+    agents = int(cfg["task"]["num_agents"])
+    front, yaw = layout["robot_xy"], layout["robot_yaw"]
+    if name in ("across", "2 against 1"):
+        far = front * torch.tensor([-1.0, 1.0])  # mirrored onto the +x face
+        if name == "2 against 1":  # two side by side there
+            far = torch.cat([far - SIDE_BY_SIDE, far + SIDE_BY_SIDE], 1)
+        layout["robot_xy"] = torch.cat([front, far], 1)
+        layout["robot_yaw"] = torch.cat([yaw, (np.pi - yaw).expand(n, agents - 1)], 1)
+        return layout, drag_of(name)
+    if name == "run-up":
+        front = front - torch.tensor([RUN_UP_M, 0.0])
+    step = torch.tensor([cfg["lowlevel"]["size"][0] + GAP_M, 0.0])
+    layout["robot_xy"] = torch.cat([front - k * step for k in range(agents)], 1)
+    layout["robot_yaw"] = yaw.expand(n, agents).clone()
+    return layout, drag_of(name)
+
+
+def agents_of(name: str) -> int:
+    """How many robots layout `name` has."""
+    return {"across": 2, "2 against 1": 3}.get(name) or (int(name.split()[-1]) if name.startswith("line") else 1)
+
+
+def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS) -> dict:
+    """The robot of `overrides` in each of `layouts`, `envs` starts each: `layout` (L,); `fell` (L,), the share of
+    starts in which a robot fell within `SQUEEZE_S`, and `first_fell` (L,), in which robot 0 did (the one squeezed
+    against the object, or shoved back)."""
+    fell, first_fell = [], []
+    for name in layouts:
+        cfg = to_plain(compose_config([*overrides, "task=cuboid", f"task.num_agents={agents_of(name)}"]))
+        layout, drag = _layout(cfg, name, envs, seed)
+
+        def set_drag(sim, drag=drag) -> None:
+            sim.set_object_mass(np.arange(envs), np.full(envs, drag / (DRAG_FRICTION * G)))
+
+        commands = np.tile([PUSH_SPEED, 0.0, 0.0], (envs, 1))
+        run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=set_drag)
+        fell.append(float((run["tilt"] > FALL_TILT).any(1).mean()))
+        first_fell.append(float((run["tilts"][..., 0] > FALL_TILT).any(1).mean()))
+    return {"layout": list(layouts), "fell": np.array(fell), "first_fell": np.array(first_fell), "envs": envs}
+
+
+def drag_of(name: str) -> float:
+    """N; the cuboid's drag in layout `name`: immovable against a wall of robots, its task's across it."""
+    return ACROSS_DRAG if name in ("across", "2 against 1") else WALL_DRAG
+
+
+def print_squeeze(overrides: list[str], envs: int, seed: int) -> None:
+    """`mapush probe squeeze`: the sweep, one line per layout."""
+    found = squeeze_sweep(overrides, envs, seed)
+    robot = " ".join(overrides) or "the default low level"
+    print(f"{robot}: {envs} starts a layout, {SQUEEZE_S:g} s walking into the cuboid at {PUSH_SPEED:g} m/s")
+    print(f"{'layout':>11s} {'robots':>6s} {'drag N':>7s} {'robot 0 fell':>12s} {'a robot fell':>12s}")
+    for name, first, fell in zip(found["layout"], found["first_fell"], found["fell"], strict=True):
+        print(f"{name:>11s} {agents_of(name):6d} {drag_of(name):7g} {first:12.2f} {fell:12.2f}")
