@@ -41,12 +41,11 @@ def step_commands(steps: list[float]) -> np.ndarray:
 def run_steps(
     cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None
 ) -> dict[str, np.ndarray]:
-    """Stand for `settle_s`, then hold `commands` (E, 3), or follow `commands(sim)`, called before every step for
-    that step's (E, 3), for `duration_s`, every robot of an env told the same; robot 0's body-frame velocities
-    (E, T, 3), object planar speed (E, T) and every robot's tilt (E, T, A) at every policy step of the hold, `tilt`
-    (E, T) the most tilted robot's.
-    E is the layout's. `configure(sim)` may edit per-env model values first; `during(sim)` runs before every step of
-    the hold (e.g. to apply a load)."""
+    """Stand for `settle_s`, then hold `commands` (E, 3), every robot of an env told the same, or (E, A, 3), or
+    follow `commands(sim)`, called before every step for that step's (E, 3), for `duration_s`. Returns robot 0's
+    body-frame velocities (E, T, 3), object planar speed (E, T) and every robot's tilt (E, T, A) at every policy step
+    of the hold, `tilt` (E, T) the most tilted robot's. E is the layout's. `configure(sim)` may edit per-env model
+    values first; `during(sim)` runs before every step of the hold (e.g. to apply a load)."""
     n, agents = len(layout["object_xy"]), int(cfg["task"]["num_agents"])
     backend = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
     sim = PushSim(cfg["sim"], cfg["task"], backend, n)
@@ -58,7 +57,8 @@ def run_steps(
         sim.step(zero)
 
     def as_input(values: np.ndarray) -> torch.Tensor:
-        return torch.from_numpy(values).float().unsqueeze(1).expand(n, agents, 3)
+        values = torch.from_numpy(values).float()
+        return values if values.dim() == 3 else values.unsqueeze(1).expand(n, agents, 3)
 
     held = None if callable(commands) else as_input(commands)
     robot_vel, object_speed, tilt = [], [], []

@@ -10,6 +10,9 @@ Every robot walks into the cuboid at `PUSH_SPEED` for `SQUEEZE_S`, in each of th
   task's own): each robot bears the other's push through the object, as at the two sides of the cylinder;
 - *2 against 1*: two teammates side by side on the far face: they outpush the robot, which is shoved back.
 
+And a graded shove (`shove_sweep`): "2 against 1", the pair told each speed of `PAIR_SPEEDS` and robot 0 the full
+`PUSH_SPEED`: from a pair that robot 0 outpushes to one that drives it back.
+
 A robot that tilts beyond the pushing levels' `robot_tilt` threshold has fallen. The tracker's fall model reads the
 net planar contact force on it, in which pushes from opposite sides cancel (docs/fidelity.md, "Known open
 deviations"); this measures whether the Go1 falls there, so the two can be compared (`mapush probe squeeze`).
@@ -38,6 +41,10 @@ RUN_UP_M = 1.0
 SIDE_BY_SIDE = torch.tensor([0.0, 0.25])
 """m; the two robots of "2 against 1" stand this far to either side of the far face's centre line (0.5 m apart,
 a robot's footprint is 0.28 m wide; the cuboid's face is 1.2 m)."""
+PAIR_SPEEDS = (0.1, 0.2, 0.3, 0.4, 0.5)
+"""m/s; the pair's commands in the graded shove, up to the full `PUSH_SPEED`."""
+SHOVE_SPEED_S = (1.0, 2.0)
+"""s into the hold; robot 0's speed along its heading is averaged between them, after the pair has closed in."""
 GAP_M = 0.02
 """m; between the object and the first robot, and between robots in a line."""
 
@@ -87,16 +94,42 @@ def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS) -
     return {"layout": list(layouts), "fell": np.array(fell), "first_fell": np.array(first_fell), "envs": envs}
 
 
+def shove_sweep(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_SPEEDS) -> dict:
+    """The robot of `overrides` shoved by a pair at each of `pair_speeds`, `envs` starts each: `pair_speed` (S,);
+    `fell` (S,), the share of starts in which robot 0 fell within `SQUEEZE_S`; `speed` (S,), robot 0's median speed
+    along its heading over `SHOVE_SPEED_S` (m/s; below 0: driven back)."""
+    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=3"]))
+    n = envs * len(pair_speeds)
+    layout, drag = _layout(cfg, "2 against 1", n, seed)
+    commands = np.zeros((n, 3, 3))
+    commands[:, 0, 0], commands[:, 1:, 0] = PUSH_SPEED, np.repeat(pair_speeds, envs)[:, None]
+
+    def set_drag(sim) -> None:
+        sim.set_object_mass(np.arange(n), np.full(n, drag / (DRAG_FRICTION * G)))
+
+    run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=set_drag)
+    first, last = (round(s / run["dt"]) for s in SHOVE_SPEED_S)
+    fell = (run["tilts"][..., 0] > FALL_TILT).any(1).reshape(len(pair_speeds), envs)
+    speed = run["robot_vel"][:, first:last, 0].mean(1).reshape(len(pair_speeds), envs)
+    return {"pair_speed": np.asarray(pair_speeds, float), "fell": fell.mean(1), "speed": np.median(speed, 1)}
+
+
 def drag_of(name: str) -> float:
     """N; the cuboid's drag in layout `name`: immovable against a wall of robots, its task's across it."""
     return ACROSS_DRAG if name in ("across", "2 against 1") else WALL_DRAG
 
 
 def print_squeeze(overrides: list[str], envs: int, seed: int) -> None:
-    """`mapush probe squeeze`: the sweep, one line per layout."""
+    """`mapush probe squeeze`: the layouts, one line each, then the graded shove, one line per pair speed."""
     found = squeeze_sweep(overrides, envs, seed)
     robot = " ".join(overrides) or "the default low level"
     print(f"{robot}: {envs} starts a layout, {SQUEEZE_S:g} s walking into the cuboid at {PUSH_SPEED:g} m/s")
     print(f"{'layout':>11s} {'robots':>6s} {'drag N':>7s} {'robot 0 fell':>12s} {'a robot fell':>12s}")
     for name, first, fell in zip(found["layout"], found["first_fell"], found["fell"], strict=True):
         print(f"{name:>11s} {agents_of(name):6d} {drag_of(name):7g} {first:12.2f} {fell:12.2f}")
+    shoved = shove_sweep(overrides, envs, seed)
+    print(f"2 against 1, graded: robot 0 at {PUSH_SPEED:g} m/s, the pair at each speed; robot 0's speed along its")
+    print(f"heading over {SHOVE_SPEED_S[0]:g}-{SHOVE_SPEED_S[1]:g} s (median; below 0: driven back)")
+    print(f"{'pair m/s':>11s} {'speed m/s':>10s} {'robot 0 fell':>12s}")
+    for pair, speed, fell in zip(shoved["pair_speed"], shoved["speed"], shoved["fell"], strict=True):
+        print(f"{pair:11g} {speed:10.2f} {fell:12.2f}")

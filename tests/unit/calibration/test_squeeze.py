@@ -36,3 +36,10 @@ def test_a_tracker_that_cannot_hold_its_own_push_falls_in_every_layout_and_the_s
     assert weak["layout"] == list(squeeze.LAYOUTS)
     assert (weak["fell"] == 1.0).all()  # the measurement can see a fall
     assert (shipped["fell"] == 0.0).all()
+
+
+def test_a_graded_shove_drives_the_lone_robot_back_only_when_the_pair_outpushes_it():
+    found = squeeze.shove_sweep(["lowlevel=tracker", "sim.nthread=1"], envs=1, seed=0, pair_speeds=(0.1, 0.5))
+    slow, fast = found["speed"]
+    assert slow > 0.0 > fast  # a slow pair is pushed back by it; a full-speed pair drives it back
+    assert list(found["fell"]) == [0.0, 0.0]  # the shipped tracker's load reads its own cap: it never falls
