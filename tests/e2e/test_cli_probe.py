@@ -57,12 +57,16 @@ def test_a_squeeze_probe_of_no_robots_is_refused(cli):
 
 @pytest.mark.slow
 def test_the_squeeze_probe_prints_a_row_per_layout(cli):
-    from mapush.calibration.squeeze import LAYOUTS
+    from mapush.calibration.squeeze import LAYOUTS, PAIR_SPEEDS
 
     proc = cli("probe", "squeeze", "--envs", "1", "lowlevel=tracker", "sim.nthread=1")
     assert proc.returncode == 0, proc.stderr
-    rows = proc.stdout.strip().splitlines()[-len(LAYOUTS) :]
-    assert [row.split()[-1] for row in rows] == ["0.00"] * len(LAYOUTS)  # the shipped tracker falls in none
+    lines = [line.strip() for line in proc.stdout.strip().splitlines()]
+    rows = [next(line for line in lines if line.startswith(f"{name} ")) for name in LAYOUTS]
+    assert [row.split()[-2:] for row in rows] == [["0.00", "0.00"]] * len(LAYOUTS)  # the shipped tracker falls in none
+    graded = lines[-len(PAIR_SPEEDS) :]
+    assert [float(row.split()[0]) for row in graded] == list(PAIR_SPEEDS)
+    assert [row.split()[-1] for row in graded] == ["0.00"] * len(PAIR_SPEEDS)
 
 
 @pytest.mark.slow

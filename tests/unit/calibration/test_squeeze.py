@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 
 from mapush.calibration import squeeze
@@ -30,6 +31,7 @@ def test_each_layout_puts_its_robots_in_line_or_across_the_cuboid_without_overla
             assert bool((gaps > length).all())
 
 
+@pytest.mark.slow
 def test_a_tracker_that_cannot_hold_its_own_push_falls_in_every_layout_and_the_shipped_one_in_none():
     weak = squeeze.squeeze_sweep(["lowlevel=tracker", f"lowlevel.fall={WEAK}"], envs=2, seed=0)
     shipped = squeeze.squeeze_sweep(["lowlevel=tracker"], envs=2, seed=0)
