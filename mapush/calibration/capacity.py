@@ -169,9 +169,12 @@ def fit_push_gain(
     return float((grid[moving] * shortfall).sum() / (shortfall**2).sum())
 
 
-def fall_override(fall: dict) -> str:
-    """A `fall` model as the value of a Hydra override, `{load_n:37.2,width_n:0.47,...}`."""
-    return "{" + ",".join(f"{k}:{v:g}" for k, v in fall.items()) + "}"
+def fall_overrides(fall: dict | None) -> list[str]:
+    """The Hydra overrides that make `fall` the tracker's whole fall model (None: it cannot fall): the config's model
+    cleared, then this one set, so that no key of the config's (a shove curve) is merged into it."""
+    if fall is None:
+        return ["lowlevel.fall=null"]
+    return ["lowlevel.fall=null", "++lowlevel.fall={" + ",".join(f"{k}:{v:g}" for k, v in fall.items()) + "}"]
 
 
 def fit_contact_fall_load(
@@ -183,8 +186,8 @@ def fit_contact_fall_load(
     midpoint drops (the same seed draws the same pushes and thresholds), so a bisection finds it."""
 
     def falls(load_n: float) -> float:
-        fall = fall_override({"load_n": load_n, "width_n": curve["width_n"], **FALL_TIMES})
-        return float(push_sweep([*tracker, f"lowlevel.fall={fall}"], repeats, seed)["fell"].mean())
+        fall = fall_overrides({"load_n": load_n, "width_n": curve["width_n"], **FALL_TIMES})
+        return float(push_sweep([*tracker, *fall], repeats, seed)["fell"].mean())
 
     low, high = float(curve["load_n"]), float(DRAG_GRID[-1])
     if falls(low) <= go1_falls:

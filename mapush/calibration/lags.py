@@ -39,13 +39,14 @@ def step_commands(steps: list[float]) -> np.ndarray:
 
 
 def run_steps(
-    cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None
+    cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None, after=None
 ) -> dict[str, np.ndarray]:
     """Stand for `settle_s`, then hold `commands` (E, 3), every robot of an env told the same, or (E, A, 3), or
     follow `commands(sim)`, called before every step for that step's (E, 3), for `duration_s`. Returns robot 0's
     body-frame velocities (E, T, 3), object planar speed (E, T) and every robot's tilt (E, T, A) at every policy step
     of the hold, `tilt` (E, T) the most tilted robot's. E is the layout's. `configure(sim)` may edit per-env model
-    values first; `during(sim)` runs before every step of the hold (e.g. to apply a load)."""
+    values first; `during(sim)` runs before every step of the hold (e.g. to apply a load), `after(sim)` after it (e.g.
+    to read the low level's state)."""
     n, agents = len(layout["object_xy"]), int(cfg["task"]["num_agents"])
     backend = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
     sim = PushSim(cfg["sim"], cfg["task"], backend, n)
@@ -66,6 +67,8 @@ def run_steps(
         if during is not None:
             during(sim)
         sim.step(as_input(commands(sim)) if held is None else held)
+        if after is not None:
+            after(sim)
         state = sim.read()
         yaw = state.robot_yaw[:, 0]
         vel = state.robot_vel[:, 0]

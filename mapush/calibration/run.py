@@ -6,7 +6,9 @@ Three experiments on the robot that the overrides choose (default `lowlevel=go1`
   force-speed line, whose push gain sets the tracker's `lag` = mass / gain (`capacity.py`): the tracker's velocity
   actuator F = gain (v_cmd - v) is that line, so it pushes each drag at the Go1's speed;
 - walking under a growing held load -> its fall curve, whose width the tracker's `fall` model takes; its midpoint is
-  the lowest at which the tracker falls pushing no more often than the Go1 (`capacity.py`).
+  the lowest at which the tracker falls pushing no more often than the Go1 (`capacity.py`);
+- shoved back through the cuboid by two teammates walking at growing speeds -> its falls, to which the `fall`
+  model's shove curve (`shove_mps`, `shove_shape`) is fitted on the tracker's own shove speeds (`squeeze.py`).
 
 The fitted values replace those keys in the tracker config (each line says what it was calibrated against and when),
 except a yaw lag the robot does not follow (`STEADY_MIN`), a capacity or push gain the sweep cannot give, or a fall
@@ -27,6 +29,7 @@ from omegaconf import OmegaConf
 
 from mapush.atomic import write_text
 from mapush.calibration import capacity as cap
+from mapush.calibration import squeeze
 from mapush.calibration.lags import (
     AXES,
     LAG_GRID,
@@ -41,8 +44,11 @@ from mapush.calibration.lags import (
 from mapush.config import CONF_DIR, compose_config, to_plain
 from mapush.errors import BadInput
 from mapush.lowlevel.go1 import policy_of
+from mapush.lowlevel.tracker import FALL_KEYS
 
 CALIBRATED = "calibrated against"
+SHOVE_STARTS_PER_REPEAT = 4
+"""Starts per pair speed in the graded shove, per `repeats`: 24 at the default 6, a fall share to about 4 %."""
 CALIBRATED_KEYS = ("lag", "yaw_lag", "max_force", "force_cap", "fall")
 """The tracker keys a calibration writes or reads back: a config must have each at the top level."""
 
@@ -121,9 +127,13 @@ def calibrate(
             warnings.append("fall: the tracker falls pushing more often than the Go1 at every midpoint; left as it was")
         else:
             fitted["fall"] = {"load_n": round(contact_load, 1), "width_n": round(curve["width_n"], 2), **cap.FALL_TIMES}
+    shoves = _fit_shoves(reference, before, fitted, SHOVE_STARTS_PER_REPEAT * repeats, seed, warnings)
     write_tracker_config(config_path, fitted, source)
     # the tracker as written, through the same push sweep
-    tracker = cap.push_sweep(["lowlevel=tracker", *_as_overrides(OmegaConf.load(config_path))], repeats, seed)
+    written = ["lowlevel=tracker", *_as_overrides(OmegaConf.load(config_path))]
+    tracker = cap.push_sweep(written, repeats, seed)
+    shoved = squeeze.shove_sweep(written, shoves["envs"], seed)
+    shoves.update(tracker_fell=shoved["fell"].tolist(), tracker_speed=shoved["speed"].tolist())
     summary = {
         "fitted": {"free_lag": free_lag, "yaw_lag": yaw_lag, **{k: v for k, v in fitted.items() if k != "yaw_lag"}},
         "written": fitted,
@@ -151,10 +161,37 @@ def calibrate(
             "tracker_fell": tracker["fell"].tolist(),
         },
         "falls": {"load_n": falls["load"].tolist(), "fell": falls["fell"].tolist(), "window_s": cap.FALL_WINDOW_S},
+        "shoves": shoves,
     }
     write_text(out_dir / "calibration.json", json.dumps(summary, indent=1) + "\n")
     plot_calibration(summary, out_dir / "calibration.png")
     return summary
+
+
+def _fit_shoves(reference: list[str], before: dict, fitted: dict, envs: int, seed: int, warnings: list[str]) -> dict:
+    """The graded shove on the robot of `reference`, and the shove curve fitted to its falls on the tracker as
+    fitted so far, added to `fitted["fall"]`; what was measured, for the record."""
+    go1 = squeeze.shove_sweep(reference, envs, seed)
+    record = {"envs": envs, "pair_speed": go1["pair_speed"].tolist(), "fell": go1["fell"].tolist()}
+    record.update(speed=go1["speed"].tolist(), curve=None)
+    model = fitted.get("fall")
+    if model is None:  # the fall model was left as it was (a warning says why): so is its shove curve
+        return record
+    unfitted = {**{k: model[k] for k in FALL_KEYS}, "shove_mps": 1.0, "shove_shape": 1.0}  # a fall changes no motion
+    trial = {**before, **fitted, "force_cap": "planar", "fall": unfitted}
+    traces = squeeze.tracker_shoves(["lowlevel=tracker", *_as_overrides(trial)], envs, seed)
+    falls = np.round(go1["fell"] * envs)
+    curve = squeeze.fit_shove_curve(traces, falls, np.full(len(falls), envs), float(model["window_s"]))
+    if curve is None:
+        warnings.append("shove: the robot never fell when shoved; the fall model is written without a shove curve")
+        return record
+    record["curve"] = curve
+    fitted["fall"] = {
+        **{k: model[k] for k in FALL_KEYS},
+        "shove_mps": round(curve["shove_mps"], 3),
+        "shove_shape": round(curve["shove_shape"], 2),
+    }
+    return record
 
 
 def _as_overrides(tracker: dict, fall: bool = True) -> list[str]:
@@ -163,7 +200,7 @@ def _as_overrides(tracker: dict, fall: bool = True) -> list[str]:
     overrides = [f"lowlevel.{k}={tracker[k]}" for k in keys]
     if fall:
         model = tracker.get("fall")
-        overrides.append("lowlevel.fall=" + ("null" if model is None else cap.fall_override(model)))
+        overrides += cap.fall_overrides(model)
     return overrides
 
 
@@ -195,7 +232,7 @@ def plot_calibration(summary: dict, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 5, figsize=(20, 3.4))
+    fig, axes = plt.subplots(1, 6, figsize=(24, 3.4))
     commands, legged, dt = np.array(summary["free"]["commands"]), np.array(summary["free"]["legged"]), summary["dt"]
     t = (np.arange(legged.shape[1]) + 1) * dt
     per_axis = len(commands) // 3
@@ -242,6 +279,15 @@ def plot_calibration(summary: dict, out: Path) -> None:
         ax.axvline(summary["contact_fall_load_n"], color="k", lw=0.8, label="tracker's contact fall load")
     ax.set_title(f"falls within {summary['falls']['window_s']:g} s under a held load")
     ax.set_xlabel("held load, N")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=7)
+    shoves, ax = summary.get("shoves"), axes[5]
+    if shoves is not None:
+        ax.plot(shoves["pair_speed"], shoves["fell"], "o-", label="measured")
+        if "tracker_fell" in shoves:
+            ax.plot(shoves["pair_speed"], shoves["tracker_fell"], "s--", label="tracker as written")
+    ax.set_title("shoved back by two teammates: falls")
+    ax.set_xlabel("the teammates' command, m/s")
     ax.set_ylim(-0.05, 1.05)
     ax.legend(fontsize=7)
     fig.tight_layout()

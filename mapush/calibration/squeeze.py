@@ -114,6 +114,57 @@ def shove_sweep(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_SPE
     return {"pair_speed": np.asarray(pair_speeds, float), "fell": fell.mean(1), "speed": np.median(speed, 1)}
 
 
+def tracker_shoves(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_SPEEDS) -> dict[str, np.ndarray]:
+    """The tracker of `overrides` (a `fall` model with shove keys; their values do not matter: a fall changes no
+    motion) in the graded shove, as `shove_sweep` runs it: robot 0's low-passed shove speed `shove` (E, T), m/s, and
+    its hazard rate from the contact load `load_rate` (E, T), 1/s, at every policy step; `group` (E,) the index of
+    its pair speed; `dt`, s."""
+    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=3"]))
+    n = envs * len(pair_speeds)
+    layout, drag = _layout(cfg, "2 against 1", n, seed)
+    commands = np.zeros((n, 3, 3))
+    commands[:, 0, 0], commands[:, 1:, 0] = PUSH_SPEED, np.repeat(pair_speeds, envs)[:, None]
+    shove, load_rate = [], []
+
+    def set_drag(sim) -> None:
+        sim.set_object_mass(np.arange(n), np.full(n, drag / (DRAG_FRICTION * G)))
+
+    def record(sim) -> None:
+        robots = sim.lowlevel
+        shove.append(robots.shove[:, 0].copy())
+        load_rate.append(-np.log1p(-robots.fall_probability(robots.load[:, 0])) / robots.fall["window_s"])
+
+    run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=set_drag, after=record)
+    return {
+        "shove": np.stack(shove, 1),
+        "load_rate": np.stack(load_rate, 1),
+        "group": np.repeat(np.arange(len(pair_speeds)), envs),
+        "dt": run["dt"],
+    }
+
+
+def fit_shove_curve(traces: dict[str, np.ndarray], falls: np.ndarray, trials: np.ndarray, window_s: float):
+    """The shove curve (`shove_mps`, `shove_shape`: P(u) = 1 - exp(-(u / shove_mps) ** shove_shape) within
+    `window_s`) of greatest likelihood for the Go1's `falls` of `trials` (S,) per pair speed, when the tracker's fall
+    share at each is the mean over its starts of 1 - exp(-H), H its hazard (the contact load's and the shove
+    curve's) integrated over the hold (`tracker_shoves`' `traces`); None when no Go1 fell."""
+    if not np.any(falls):
+        return None
+    shove, group, dt = traces["shove"], traces["group"], traces["dt"]
+    load_hazard = traces["load_rate"].sum(1) * dt  # (E,)
+    scales = np.linspace(0.01, 0.5, 197)[:, None, None]
+    best = (-np.inf, None)
+    for shape in np.geomspace(1.0, 40.0, 60):
+        hazard = load_hazard[None] + ((shove[None] / scales) ** shape).sum(-1) * dt / window_s  # (M, E)
+        fell = 1.0 - np.exp(-hazard)
+        share = np.stack([fell[:, group == s].mean(1) for s in range(len(falls))], 1).clip(1e-9, 1 - 1e-9)  # (M, S)
+        ll = (falls * np.log(share) + (trials - falls) * np.log1p(-share)).sum(1)
+        if ll.max() > best[0]:
+            scale = float(scales[int(ll.argmax()), 0, 0])
+            best = (float(ll.max()), {"shove_mps": scale, "shove_shape": float(shape)})
+    return best[1]
+
+
 def drag_of(name: str) -> float:
     """N; the cuboid's drag in layout `name`: immovable against a wall of robots, its task's across it."""
     return ACROSS_DRAG if name in ("across", "2 against 1") else WALL_DRAG

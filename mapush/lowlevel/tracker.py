@@ -15,6 +15,13 @@ Two limits stand for the legged Go1's, as `mapush calibrate` measures them (docs
   `window_s` with the measured probability P(L) = 1 / (1 + exp(-(L - load_n) / width_n)); so a robot falls at the
   hazard rate -ln(1 - P(L)) / window_s, against a threshold drawn per episode from Exp(1). A fallen robot reads as
   tilted by pi / 2, which the pushing levels' `robot_tilt` exception ends the episode on, as a Go1's fall.
+  A held load cannot tell a robot holding a heavy object (a Go1 stands) from one that teammates shove back through
+  the object (a Go1 falls): both read its cap. With `shove_mps` and `shove_shape`, a second hazard adds to the
+  first: the *shove speed* u, the robot's speed against its commanded direction while its contacts drive it (their
+  net force has a component along its velocity), low-passed over `filter_s`, gives the probability of a fall
+  within `window_s` P(u) = 1 - exp(-(u / shove_mps) ** shove_shape), fitted to the Go1's falls when shoved
+  (`mapush/calibration/squeeze.py`): a hazard rate (u / shove_mps) ** shove_shape / window_s, none for a robot
+  not shoved. Runs made before the keys have no shove hazard.
 """
 
 from __future__ import annotations
@@ -36,6 +43,10 @@ FORCE_CAPS = ("planar", "axes")
 """`force_cap`: on the norm of the planar force, or on each world axis (runs made before the key)."""
 FALL_KEYS = ("load_n", "width_n", "window_s", "filter_s")
 """`fall`'s keys: the fitted fall curve (N, N, s) and the load's low-pass time constant (s)."""
+SHOVE_KEYS = ("shove_mps", "shove_shape")
+"""`fall`'s optional keys, both or neither: the fitted shove curve's scale (m/s) and shape (none)."""
+DRIVEN_N = 1.0
+"""N; a net contact force below this does not drive a robot (contact noise at rest)."""
 RANDOMIZED = ("lag", "yaw_lag", "max_force")
 """The keys `randomize` may draw anew per robot in training (`Tracker.vary`)."""
 JOINTS = ("x", "y", "yaw")
@@ -52,11 +63,14 @@ class Tracker:
             raise BadInput(f"lowlevel.force_cap={cfg['force_cap']!r}; valid: {', '.join(FORCE_CAPS)}")
         fall = cfg.get("fall")
         if fall is not None:
-            wrong = sorted(set(FALL_KEYS) ^ set(fall)) if isinstance(fall, dict) else FALL_KEYS
-            numbers = not wrong and all(isinstance(fall[k], int | float) for k in FALL_KEYS)
-            if not numbers or not all(float(fall[k]) > 0 for k in ("width_n", "window_s", "filter_s")):
+            keys = set(fall) if isinstance(fall, dict) else set()
+            wrong = not keys or keys not in (set(FALL_KEYS), set(FALL_KEYS) | set(SHOVE_KEYS))
+            numbers = not wrong and all(isinstance(fall[k], int | float) for k in keys)
+            positive = ("width_n", "window_s", "filter_s", *SHOVE_KEYS)
+            if not numbers or not all(float(fall[k]) > 0 for k in positive if k in keys):
                 raise BadInput(
-                    f"lowlevel.fall={fall}: keys {', '.join(FALL_KEYS)} (width_n, window_s, filter_s > 0), or null"
+                    f"lowlevel.fall={fall}: keys {', '.join(FALL_KEYS)}, optionally with {', '.join(SHOVE_KEYS)} "
+                    f"(width_n, window_s, filter_s, {', '.join(SHOVE_KEYS)} > 0), or null"
                 )
         for key, bounds in (cfg.get("randomize") or {}).items():
             if key not in RANDOMIZED:
@@ -78,6 +92,7 @@ class Tracker:
         self.yaw_inertia = cfg["mass"] * (length**2 + width**2) / 12.0
         self.planar = cfg.get("force_cap", "axes") == "planar"
         self.fall = cfg.get("fall")
+        self.shoves = self.fall is not None and SHOVE_KEYS[0] in self.fall
         self.rng = np.random.default_rng([0, FALL_STREAM])
         self.cap: np.ndarray | None = None  # (E, A) N, each robot's planar force cap (`planar`)
 
@@ -146,8 +161,10 @@ class Tracker:
             self.forcerange = batch.expand("actuator_forcerange")
             self.cap = np.full((E, A), float(self.cfg["max_force"]))
         if self.fall is not None:
-            self.constraint = batch.bind("qfrc_constraint")
+            self.constraint, self.qvel = batch.bind("qfrc_constraint"), batch.bind("qvel")
             self.load = np.zeros((E, A))  # N, the low-passed planar contact force
+            self.shove = np.zeros((E, A))  # m/s, the low-passed shove speed (`shove_speed`)
+            self.commanded = np.zeros((E, A, 2))  # m/s, the planar command in the world frame
             self.hazard = np.zeros((E, A))  # the hazard accumulated this episode
             self.threshold = np.ones((E, A))  # the hazard at which each robot falls, Exp(1) per episode
             self.fallen = np.zeros((E, A), dtype=bool)
@@ -158,14 +175,28 @@ class Tracker:
         z = (np.asarray(load, dtype=np.float64) - f["load_n"]) / f["width_n"]
         return np.minimum(1.0 / (1.0 + np.exp(-np.clip(z, -60.0, 60.0))), MAX_FALL_PROBABILITY)
 
+    def shove_speed(self) -> np.ndarray:
+        """(E, A) m/s: each robot's speed against its commanded planar direction while its contacts drive it (their
+        net planar force has a positive component along its velocity); 0 otherwise, and for a zero command."""
+        force = self.constraint[:, self.qvel_idx[:, :2]]  # (E, A, 2)
+        vel = self.qvel[:, self.qvel_idx[:, :2]]
+        norm = np.linalg.norm(self.commanded, axis=-1)
+        against = -(vel * self.commanded).sum(-1) / np.maximum(norm, 1e-9)
+        driven = ((force * vel).sum(-1) > 0) & (np.linalg.norm(force, axis=-1) > DRIVEN_N) & (norm > 1e-9)
+        return np.where(driven, np.maximum(against, 0.0), 0.0)
+
     def after_step(self, dt: float) -> None:
-        """After a policy step of `dt` s: low-pass each robot's planar contact load and accumulate its fall hazard;
-        a robot whose hazard reaches its threshold has fallen (it stays fallen until `place`)."""
+        """After a policy step of `dt` s: low-pass each robot's planar contact load (and shove speed) and accumulate
+        its fall hazard; a robot whose hazard reaches its threshold has fallen (it stays fallen until `place`)."""
         if self.fall is None:
             return
+        f, blend = self.fall, min(1.0, dt / self.fall["filter_s"])
         load = np.linalg.norm(self.constraint[:, self.qvel_idx[:, :2]], axis=-1)  # (E, A)
-        self.load += (load - self.load) * min(1.0, dt / self.fall["filter_s"])
-        rate = -np.log1p(-self.fall_probability(self.load)) / self.fall["window_s"]
+        self.load += (load - self.load) * blend
+        rate = -np.log1p(-self.fall_probability(self.load)) / f["window_s"]
+        if self.shoves:
+            self.shove += (self.shove_speed() - self.shove) * blend
+            rate = rate + (self.shove / f["shove_mps"]) ** f["shove_shape"] / f["window_s"]
         self.hazard += rate * dt
         self.fallen |= self.hazard >= self.threshold
 
@@ -184,6 +215,8 @@ class Tracker:
         yaw = qpos[:, self.qpos_idx[:, 2]]
         world = np.concatenate([rotate(cmd[..., :2], yaw), cmd[..., 2:3]], -1)
         ctrl[:, self.ctrl_idx] = world
+        if self.fall is not None:
+            self.commanded[:] = world[..., :2]
         if self.planar:
             error = world[..., :2] - qvel[:, self.qvel_idx[:, :2]]  # (E, A, 2)
             norm = np.linalg.norm(error, axis=-1, keepdims=True)
@@ -222,5 +255,5 @@ class Tracker:
         qpos[np.ix_(ids, self.qpos_idx[:, 2])] = yaw
         qvel[np.ix_(ids, self.qvel_idx.reshape(-1))] = 0.0
         if self.fall is not None:
-            self.load[ids], self.hazard[ids], self.fallen[ids] = 0.0, 0.0, False
+            self.load[ids], self.shove[ids], self.hazard[ids], self.fallen[ids] = 0.0, 0.0, 0.0, False
             self.threshold[ids] = self.rng.exponential(1.0, size=(len(ids), self.threshold.shape[1]))

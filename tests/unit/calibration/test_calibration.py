@@ -151,8 +151,8 @@ def test_the_contact_fall_midpoint_is_the_lowest_at_which_the_tracker_falls_push
     assert load_n is not None and load_n > curve["load_n"]
 
     def falls(midpoint: float) -> float:
-        fall = capacity.fall_override({"load_n": midpoint, "width_n": 0.5, **capacity.FALL_TIMES})
-        return capacity.push_sweep([*tracker, f"lowlevel.fall={fall}"], 1, 0)["fell"].mean()
+        fall = capacity.fall_overrides({"load_n": midpoint, "width_n": 0.5, **capacity.FALL_TIMES})
+        return capacity.push_sweep([*tracker, *fall], 1, 0)["fell"].mean()
 
     assert falls(load_n) == 0.0 and falls(load_n - 1.0) > 0.0
 

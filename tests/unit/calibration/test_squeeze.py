@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import torch
 
 from mapush.calibration import squeeze
-from mapush.calibration.capacity import fall_override
+from mapush.calibration.capacity import fall_overrides
 from mapush.config import compose_config, to_plain
 
-WEAK = fall_override({"load_n": 30.0, "width_n": 1.0, "window_s": 1.0, "filter_s": 0.2})
+WEAK = fall_overrides({"load_n": 30.0, "width_n": 1.0, "window_s": 1.0, "filter_s": 0.2})
 """A fall curve centred below the tracker's own push (its 52 N cap): a tracker pushing a wall with it falls."""
 
 
@@ -32,16 +33,59 @@ def test_each_layout_puts_its_robots_in_line_or_across_the_cuboid_without_overla
 
 
 @pytest.mark.slow
-def test_a_tracker_that_cannot_hold_its_own_push_falls_in_every_layout_and_the_shipped_one_in_none():
-    weak = squeeze.squeeze_sweep(["lowlevel=tracker", f"lowlevel.fall={WEAK}"], envs=2, seed=0)
+def test_a_tracker_that_cannot_hold_its_own_push_falls_in_every_layout_and_the_shipped_one_only_when_shoved():
+    weak = squeeze.squeeze_sweep(["lowlevel=tracker", *WEAK], envs=2, seed=0)
     shipped = squeeze.squeeze_sweep(["lowlevel=tracker"], envs=2, seed=0)
     assert weak["layout"] == list(squeeze.LAYOUTS)
     assert (weak["fell"] == 1.0).all()  # the measurement can see a fall
-    assert (shipped["fell"] == 0.0).all()
+    squeezed = np.array([name != "2 against 1" for name in shipped["layout"]])
+    assert (shipped["fell"][squeezed] == 0.0).all()  # squeezed, as the Go1, it stands
 
 
 def test_a_graded_shove_drives_the_lone_robot_back_only_when_the_pair_outpushes_it():
     found = squeeze.shove_sweep(["lowlevel=tracker", "sim.nthread=1"], envs=1, seed=0, pair_speeds=(0.1, 0.5))
     slow, fast = found["speed"]
     assert slow > 0.0 > fast  # a slow pair is pushed back by it; a full-speed pair drives it back
-    assert list(found["fell"]) == [0.0, 0.0]  # the shipped tracker's load reads its own cap: it never falls
+    assert found["fell"][0] == 0.0  # not driven back: no shove hazard
+
+
+def _shoving(scale: float = 0.1, shape: float = 8.0) -> list[str]:
+    """The committed tracker's fall model with a shove curve of scale `scale` m/s."""
+    from omegaconf import OmegaConf
+
+    from mapush.config import CONF_DIR
+
+    fall = {**OmegaConf.to_container(OmegaConf.load(CONF_DIR / "lowlevel" / "tracker.yaml").fall)}
+    fall = {k: v for k, v in fall.items() if not k.startswith("shove")}
+    return fall_overrides({**fall, "shove_mps": scale, "shove_shape": shape})
+
+
+def test_a_tracker_with_a_shove_curve_falls_when_shoved_back_and_stands_when_squeezed():
+    found = squeeze.squeeze_sweep(["lowlevel=tracker", "sim.nthread=1", *_shoving()], envs=2, seed=0)
+    fell = dict(zip(found["layout"], found["first_fell"], strict=True))
+    assert fell.pop("2 against 1") == 1.0  # driven back at about 0.2 m/s against its command
+    assert set(fell.values()) == {0.0}  # pushing, run-up, squeezed in a line or across: never driven back
+
+
+def test_a_free_tracker_with_a_shove_curve_reversing_its_commands_never_falls():
+    """Braking from a reversed command moves a robot against its command too, but no contact drives it."""
+    from mapush.calibration.reversals import reversal_sweep
+
+    robots = ["lowlevel=tracker", "sim.nthread=1", *_shoving()]
+    found = reversal_sweep(robots, envs=8, seconds=4.0, seed=0, rates=(2.0,))
+    assert list(found["fell"]) == [0.0]
+
+
+def test_the_shove_fit_recovers_a_known_curve_from_synthetic_falls():
+    """Starts held at a constant shove speed per group: their fall shares from a known curve, over many trials."""
+    scale, shape, window, dt, steps = 0.15, 6.0, 4.0, 0.02, 300
+    speeds = np.array([0.0, 0.1, 0.15, 0.2, 0.3])
+    group = np.repeat(np.arange(len(speeds)), 3)
+    traces = {"shove": np.repeat(speeds[group][:, None], steps, 1), "load_rate": np.zeros((len(group), steps))}
+    traces.update(group=group, dt=dt)
+    share = 1.0 - np.exp(-((speeds / scale) ** shape) * steps * dt / window)
+    trials = np.full(len(speeds), 10_000)
+    fit = squeeze.fit_shove_curve(traces, np.round(share * trials), trials, window)
+    assert fit["shove_mps"] == pytest.approx(scale, abs=0.005)
+    assert fit["shove_shape"] == pytest.approx(shape, rel=0.15)
+    assert squeeze.fit_shove_curve(traces, np.zeros(len(speeds)), trials, window) is None  # no fall: no curve

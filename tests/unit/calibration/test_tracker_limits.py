@@ -106,3 +106,14 @@ def test_a_bad_fall_model_is_one_line():
         Tracker.check({"fall": {"load_n": 20.0}})
     with pytest.raises(BadInput, match="force_cap"):
         Tracker.check({"force_cap": "norm"})
+
+
+def test_a_shove_curve_needs_both_keys_and_a_positive_shape():
+    from mapush.errors import BadInput
+
+    base = {"load_n": 67.1, "width_n": 0.47, "window_s": 4.0, "filter_s": 0.2}
+    Tracker.check({"fall": {**base, "shove_mps": 0.17, "shove_shape": 6.0}})
+    with pytest.raises(BadInput, match="shove_shape"):
+        Tracker.check({"fall": {**base, "shove_mps": 0.17}})
+    with pytest.raises(BadInput, match="shove_shape > 0"):
+        Tracker.check({"fall": {**base, "shove_mps": 0.17, "shove_shape": 0.0}})
