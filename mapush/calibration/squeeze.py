@@ -75,6 +75,15 @@ def agents_of(name: str) -> int:
     return {"across": 2, "2 against 1": 3}.get(name) or (int(name.split()[-1]) if name.startswith("line") else 1)
 
 
+def _with_drag(n: int, drag: float):
+    """A `configure` for `run_steps`: the cuboid's floor drag `drag` (N) in all n envs."""
+
+    def set_drag(sim) -> None:
+        sim.set_object_mass(np.arange(n), np.full(n, drag / (DRAG_FRICTION * G)))
+
+    return set_drag
+
+
 def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS) -> dict:
     """The robot of `overrides` in each of `layouts`, `envs` starts each: `layout` (L,); `fell` (L,), the share of
     starts in which a robot fell within `SQUEEZE_S`, and `first_fell` (L,), in which robot 0 did (the one squeezed
@@ -83,31 +92,29 @@ def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS) -
     for name in layouts:
         cfg = to_plain(compose_config([*overrides, "task=cuboid", f"task.num_agents={agents_of(name)}"]))
         layout, drag = _layout(cfg, name, envs, seed)
-
-        def set_drag(sim, drag=drag) -> None:
-            sim.set_object_mass(np.arange(envs), np.full(envs, drag / (DRAG_FRICTION * G)))
-
         commands = np.tile([PUSH_SPEED, 0.0, 0.0], (envs, 1))
-        run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=set_drag)
+        run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(envs, drag))
         fell.append(float((run["tilt"] > FALL_TILT).any(1).mean()))
         first_fell.append(float((run["tilts"][..., 0] > FALL_TILT).any(1).mean()))
     return {"layout": list(layouts), "fell": np.array(fell), "first_fell": np.array(first_fell), "envs": envs}
+
+
+def _graded_shove(overrides: list[str], envs: int, seed: int, pair_speeds, after=None) -> dict[str, np.ndarray]:
+    """`run_steps` of "2 against 1", the pair told each of `pair_speeds` (`envs` starts each, in that order) and
+    robot 0 the full `PUSH_SPEED`; `after(sim)` runs after every step of the hold."""
+    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=3"]))
+    n = envs * len(pair_speeds)
+    layout, drag = _layout(cfg, "2 against 1", n, seed)
+    commands = np.zeros((n, 3, 3))
+    commands[:, 0, 0], commands[:, 1:, 0] = PUSH_SPEED, np.repeat(pair_speeds, envs)[:, None]
+    return run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(n, drag), after=after)
 
 
 def shove_sweep(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_SPEEDS) -> dict:
     """The robot of `overrides` shoved by a pair at each of `pair_speeds`, `envs` starts each: `pair_speed` (S,);
     `fell` (S,), the share of starts in which robot 0 fell within `SQUEEZE_S`; `speed` (S,), robot 0's median speed
     along its heading over `SHOVE_SPEED_S` (m/s; below 0: driven back)."""
-    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=3"]))
-    n = envs * len(pair_speeds)
-    layout, drag = _layout(cfg, "2 against 1", n, seed)
-    commands = np.zeros((n, 3, 3))
-    commands[:, 0, 0], commands[:, 1:, 0] = PUSH_SPEED, np.repeat(pair_speeds, envs)[:, None]
-
-    def set_drag(sim) -> None:
-        sim.set_object_mass(np.arange(n), np.full(n, drag / (DRAG_FRICTION * G)))
-
-    run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=set_drag)
+    run = _graded_shove(overrides, envs, seed, pair_speeds)
     first, last = (round(s / run["dt"]) for s in SHOVE_SPEED_S)
     fell = (run["tilts"][..., 0] > FALL_TILT).any(1).reshape(len(pair_speeds), envs)
     speed = run["robot_vel"][:, first:last, 0].mean(1).reshape(len(pair_speeds), envs)
@@ -119,22 +126,14 @@ def tracker_shoves(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_
     motion) in the graded shove, as `shove_sweep` runs it: robot 0's low-passed shove speed `shove` (E, T), m/s, and
     its hazard rate from the contact load `load_rate` (E, T), 1/s, at every policy step; `group` (E,) the index of
     its pair speed; `dt`, s."""
-    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=3"]))
-    n = envs * len(pair_speeds)
-    layout, drag = _layout(cfg, "2 against 1", n, seed)
-    commands = np.zeros((n, 3, 3))
-    commands[:, 0, 0], commands[:, 1:, 0] = PUSH_SPEED, np.repeat(pair_speeds, envs)[:, None]
     shove, load_rate = [], []
-
-    def set_drag(sim) -> None:
-        sim.set_object_mass(np.arange(n), np.full(n, drag / (DRAG_FRICTION * G)))
 
     def record(sim) -> None:
         robots = sim.lowlevel
         shove.append(robots.shove[:, 0].copy())
         load_rate.append(-np.log1p(-robots.fall_probability(robots.load[:, 0])) / robots.fall["window_s"])
 
-    run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=set_drag, after=record)
+    run = _graded_shove(overrides, envs, seed, pair_speeds, after=record)
     return {
         "shove": np.stack(shove, 1),
         "load_rate": np.stack(load_rate, 1),
