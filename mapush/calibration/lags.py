@@ -42,9 +42,10 @@ def run_steps(
     cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None, after=None
 ) -> dict[str, np.ndarray]:
     """Stand for `settle_s`, then hold `commands` (E, 3), every robot of an env told the same, or (E, A, 3), or
-    follow `commands(sim)`, called before every step for that step's (E, 3), for `duration_s`. Returns robot 0's
-    body-frame velocities (E, T, 3), object planar speed (E, T) and every robot's tilt (E, T, A) at every policy step
-    of the hold, `tilt` (E, T) the most tilted robot's. E is the layout's. `configure(sim)` may edit per-env model
+    follow `commands(sim)`, called before every step for that step's (E, 3), for `duration_s`. Returns, at every
+    policy step of the hold: `robot_vel` (E, T, 3), robot 0's body-frame velocity; `object_speed` (E, T), the
+    object's planar speed; `tilts` (E, T, A), every robot's tilt, and `tilt` (E, T), the most tilted robot's. E is
+    the layout's. `configure(sim)` may edit per-env model
     values first; `during(sim)` runs before every step of the hold (e.g. to apply a load), `after(sim)` after it (e.g.
     to read the low level's state)."""
     n, agents = len(layout["object_xy"]), int(cfg["task"]["num_agents"])

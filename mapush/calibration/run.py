@@ -186,6 +186,7 @@ def _fit_shoves(reference: list[str], before: dict, fitted: dict, envs: int, see
         warnings.append("shove: the robot never fell when shoved; the fall model is written without a shove curve")
         return record
     record["curve"] = curve
+    warnings += [f"shove: {why}" for why in [squeeze.shove_at_grid_bound(curve)] if why]
     fitted["fall"] = {
         **{k: model[k] for k in FALL_KEYS},
         "shove_mps": round(curve["shove_mps"], 3),

@@ -45,6 +45,10 @@ PAIR_SPEEDS = (0.1, 0.2, 0.3, 0.4, 0.5)
 """m/s; the pair's commands in the graded shove, up to the full `PUSH_SPEED`."""
 SHOVE_SPEED_S = (1.0, 2.0)
 """s into the hold; robot 0's speed along its heading is averaged between them, after the pair has closed in."""
+SHOVE_SCALES = np.linspace(0.01, 0.5, 197)
+"""m/s; the shove curve's scales the fit tries: from a creep to the full `PUSH_SPEED`."""
+SHOVE_SHAPES = np.geomspace(1.0, 40.0, 60)
+"""The shove curve's shapes the fit tries: from a hazard growing in proportion to u to a step at the scale."""
 GAP_M = 0.02
 """m; between the object and the first robot, and between robots in a line."""
 
@@ -146,14 +150,16 @@ def fit_shove_curve(traces: dict[str, np.ndarray], falls: np.ndarray, trials: np
     """The shove curve (`shove_mps`, `shove_shape`: P(u) = 1 - exp(-(u / shove_mps) ** shove_shape) within
     `window_s`) of greatest likelihood for the Go1's `falls` of `trials` (S,) per pair speed, when the tracker's fall
     share at each is the mean over its starts of 1 - exp(-H), H its hazard (the contact load's and the shove
-    curve's) integrated over the hold (`tracker_shoves`' `traces`); None when no Go1 fell."""
-    if not np.any(falls):
-        return None
+    curve's) integrated over the hold (`tracker_shoves`' `traces`); None when no Go1 fell, or the tracker was never
+    shoved where one did (the likelihood would be flat)."""
     shove, group, dt = traces["shove"], traces["group"], traces["dt"]
+    fell_where = np.isin(group, np.flatnonzero(falls))
+    if not fell_where.any() or not shove[fell_where].max() > 0:  # no fall, or no shove where the Go1 fell to fit to
+        return None
     load_hazard = traces["load_rate"].sum(1) * dt  # (E,)
-    scales = np.linspace(0.01, 0.5, 197)[:, None, None]
+    scales = SHOVE_SCALES[:, None, None]
     best = (-np.inf, None)
-    for shape in np.geomspace(1.0, 40.0, 60):
+    for shape in SHOVE_SHAPES:
         hazard = load_hazard[None] + ((shove[None] / scales) ** shape).sum(-1) * dt / window_s  # (M, E)
         fell = 1.0 - np.exp(-hazard)
         share = np.stack([fell[:, group == s].mean(1) for s in range(len(falls))], 1).clip(1e-9, 1 - 1e-9)  # (M, S)
@@ -162,6 +168,16 @@ def fit_shove_curve(traces: dict[str, np.ndarray], falls: np.ndarray, trials: np
             scale = float(scales[int(ll.argmax()), 0, 0])
             best = (float(ll.max()), {"shove_mps": scale, "shove_shape": float(shape)})
     return best[1]
+
+
+def shove_at_grid_bound(curve: dict[str, float]) -> str | None:
+    """What a fitted shove curve on an edge of the fit's grid means (a bound, not a fit), or None inside it."""
+    edges = [
+        f"{key} {curve[key]:g} is the fit grid's {'lower' if np.isclose(curve[key], grid[0]) else 'upper'} bound"
+        for key, grid in (("shove_mps", SHOVE_SCALES), ("shove_shape", SHOVE_SHAPES))
+        if np.isclose(curve[key], grid[0]) or np.isclose(curve[key], grid[-1])
+    ]
+    return "; ".join(edges) or None
 
 
 def drag_of(name: str) -> float:

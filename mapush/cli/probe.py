@@ -113,7 +113,7 @@ def reversals(
         raise BadInput(f"--envs {envs} --seconds {seconds:g}; valid: --envs 1 or more, --seconds above 0")
     from mapush.calibration.reversals import print_reversals
 
-    print_reversals(list(ctx.args) or ["lowlevel=go1"], envs, seconds, seed)
+    print_reversals(_robot(ctx.args), envs, seconds, seed)
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -123,10 +123,15 @@ def squeeze(
     seed: int = typer.Option(0, "--seed", help="Draws the starts (a lateral offset and a heading error each)."),
 ) -> None:
     """How often a low level's robot falls squeezed between the object and its teammates' pushes: alone against an
-    immovable cuboid, with one or two teammates in a line behind it, and with a teammate across the object (overrides
-    choose the robot; default lowlevel=go1)."""
+    immovable cuboid, from a run-up, with one or two teammates in a line behind it, with a teammate across the object,
+    and shoved back by two across it, also graded by their speed (overrides choose the robot; default lowlevel=go1)."""
     if envs < 1:
-        raise BadInput(f"--envs {envs}; valid: 1 or more")
+        raise BadInput(f"--envs {envs}; valid: --envs 1 or more")
     from mapush.calibration.squeeze import print_squeeze
 
-    print_squeeze(list(ctx.args) or ["lowlevel=go1"], envs, seed)
+    print_squeeze(_robot(ctx.args), envs, seed)
+
+
+def _robot(overrides: list[str]) -> list[str]:
+    """The overrides of a low-level probe: `lowlevel=go1` first unless they choose a low level themselves."""
+    return list(overrides) if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]

@@ -18,7 +18,8 @@ Two limits stand for the legged Go1's, as `mapush calibrate` measures them (docs
   A held load cannot tell a robot holding a heavy object (a Go1 stands) from one that teammates shove back through
   the object (a Go1 falls): both read its cap. With `shove_mps` and `shove_shape`, a second hazard adds to the
   first: the *shove speed* u, the robot's speed against its commanded direction while its contacts drive it (their
-  net force has a component along its velocity), low-passed over `filter_s`, gives the probability of a fall
+  net force, above `DRIVEN_N`, has a component along its velocity; any nonzero command gives a direction, however
+  small, and an exact zero none), low-passed over `filter_s`, gives the probability of a fall
   within `window_s` P(u) = 1 - exp(-(u / shove_mps) ** shove_shape), fitted to the Go1's falls when shoved
   (`mapush/calibration/squeeze.py`): a hazard rate (u / shove_mps) ** shove_shape / window_s, none for a robot
   not shoved. Runs made before the keys have no shove hazard.

@@ -52,7 +52,7 @@ def test_a_reversal_probe_of_no_robots_is_refused(cli):
 
 
 def test_a_squeeze_probe_of_no_robots_is_refused(cli):
-    assert_bad_input(cli("probe", "squeeze", "--envs", "0"), "--envs 0", "valid: 1 or more")
+    assert_bad_input(cli("probe", "squeeze", "--envs", "0"), "--envs 0", "valid: --envs 1 or more")
 
 
 @pytest.mark.slow

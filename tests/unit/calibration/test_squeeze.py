@@ -81,11 +81,39 @@ def test_the_shove_fit_recovers_a_known_curve_from_synthetic_falls():
     scale, shape, window, dt, steps = 0.15, 6.0, 4.0, 0.02, 300
     speeds = np.array([0.0, 0.1, 0.15, 0.2, 0.3])
     group = np.repeat(np.arange(len(speeds)), 3)
-    traces = {"shove": np.repeat(speeds[group][:, None], steps, 1), "load_rate": np.zeros((len(group), steps))}
-    traces.update(group=group, dt=dt)
-    share = 1.0 - np.exp(-((speeds / scale) ** shape) * steps * dt / window)
+    load_rate = 0.01  # 1/s, the contact load's hazard, the same in every start
+    traces = {"shove": np.repeat(speeds[group][:, None], steps, 1), "group": group, "dt": dt}
+    traces["load_rate"] = np.full((len(group), steps), load_rate)
+    share = 1.0 - np.exp(-((speeds / scale) ** shape / window + load_rate) * steps * dt)
     trials = np.full(len(speeds), 10_000)
     fit = squeeze.fit_shove_curve(traces, np.round(share * trials), trials, window)
     assert fit["shove_mps"] == pytest.approx(scale, abs=0.005)
     assert fit["shove_shape"] == pytest.approx(shape, rel=0.15)
     assert squeeze.fit_shove_curve(traces, np.zeros(len(speeds)), trials, window) is None  # no fall: no curve
+    only_unshoved = np.array([10.0, 0, 0, 0, 0])  # falls only where the tracker was never shoved: nothing to fit
+    assert squeeze.fit_shove_curve(traces, only_unshoved, trials, window) is None
+    assert squeeze.shove_at_grid_bound(fit) is None
+    assert "lower bound" in squeeze.shove_at_grid_bound({"shove_mps": squeeze.SHOVE_SCALES[0], "shove_shape": 2.0})
+
+
+def test_the_fits_hazard_is_the_one_the_tracker_accumulates():
+    """The fit rebuilds each start's hazard from `tracker_shoves`' traces: it must equal what the tracker's own fall
+    model summed in the same graded shove (the settle before it adds next to nothing: no contact, no command)."""
+    from omegaconf import OmegaConf
+
+    from mapush.config import CONF_DIR
+
+    fall = OmegaConf.to_container(OmegaConf.load(CONF_DIR / "lowlevel" / "tracker.yaml").fall)
+    assert "shove_mps" in fall  # the committed tracker has a shove curve
+    robots = {}
+
+    def keep(sim) -> None:
+        robots["tracker"] = sim.lowlevel
+
+    overrides = ["lowlevel=tracker", "sim.nthread=1"]
+    traces = squeeze.tracker_shoves(overrides, envs=1, seed=0, pair_speeds=(0.2, 0.5))
+    squeeze._graded_shove(overrides, 1, 0, (0.2, 0.5), after=keep)
+    shove_rate = (traces["shove"] / fall["shove_mps"]) ** fall["shove_shape"] / fall["window_s"]
+    rebuilt = ((shove_rate + traces["load_rate"]).sum(1)) * traces["dt"]
+    assert rebuilt[1] > 0.5  # the full-speed pair shoved it: a hazard worth checking
+    assert np.allclose(rebuilt, robots["tracker"].hazard[:, 0], rtol=1e-6, atol=1e-9)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import torch
 
+from mapush.calibration.capacity import fall_overrides
 from mapush.config import compose_config, to_plain
 from mapush.envs.mid import MidPushEnv
 from mapush.lowlevel import backend_of
@@ -75,7 +76,7 @@ def _steps_to_fall(max_force: float, seconds: float = 10.0) -> tuple[int | None,
         "task.num_agents=1",
         "lowlevel.force_cap=planar",
         f"lowlevel.max_force={max_force}",
-        "lowlevel.fall={" + ",".join(f"{k}:{v:g}" for k, v in FALL.items()) + "}",
+        *fall_overrides(FALL),  # the whole model, no shove curve of the config merged in
         "level.episode_length_s=30",
     )
     env = MidPushEnv(cfg, num_envs=1)
@@ -113,7 +114,6 @@ def test_a_shove_curve_needs_both_keys_and_a_positive_shape():
 
     base = {"load_n": 67.1, "width_n": 0.47, "window_s": 4.0, "filter_s": 0.2}
     Tracker.check({"fall": {**base, "shove_mps": 0.17, "shove_shape": 6.0}})
-    with pytest.raises(BadInput, match="shove_shape"):
-        Tracker.check({"fall": {**base, "shove_mps": 0.17}})
-    with pytest.raises(BadInput, match="shove_shape > 0"):
-        Tracker.check({"fall": {**base, "shove_mps": 0.17, "shove_shape": 0.0}})
+    for wrong in ({"shove_mps": 0.17}, {"shove_mps": 0.17, "shove_shape": 0.0}, {"shove_mps": -0.1, "shove_shape": 2}):
+        with pytest.raises(BadInput, match=r"lowlevel\.fall"):
+            Tracker.check({"fall": {**base, **wrong}})
