@@ -44,7 +44,6 @@ from mapush.calibration.lags import (
 from mapush.config import CONF_DIR, compose_config, to_plain
 from mapush.errors import BadInput
 from mapush.lowlevel.go1 import policy_of
-from mapush.lowlevel.tracker import FALL_KEYS
 
 CALIBRATED = "calibrated against"
 SHOVE_STARTS_PER_REPEAT = 4
@@ -172,12 +171,11 @@ def _fit_shoves(reference: list[str], before: dict, fitted: dict, envs: int, see
     """The graded shove on the robot of `reference`, and the shove curve fitted to its falls on the tracker as
     fitted so far, added to `fitted["fall"]`; what was measured, for the record."""
     go1 = squeeze.shove_sweep(reference, envs, seed)
-    record = {"envs": envs, "pair_speed": go1["pair_speed"].tolist(), "fell": go1["fell"].tolist()}
-    record.update(speed=go1["speed"].tolist(), curve=None)
-    model = fitted.get("fall")
+    record = {"envs": envs, **{key: go1[key].tolist() for key in ("pair_speed", "fell", "speed")}, "curve": None}
+    model = fitted.get("fall")  # the load model just fitted (its four keys)
     if model is None:  # the fall model was left as it was (a warning says why): so is its shove curve
         return record
-    unfitted = {**{k: model[k] for k in FALL_KEYS}, "shove_mps": 1.0, "shove_shape": 1.0}  # a fall changes no motion
+    unfitted = {**model, "shove_mps": 1.0, "shove_shape": 1.0}  # a fall changes no motion
     trial = {**before, **fitted, "force_cap": "planar", "fall": unfitted}
     traces = squeeze.tracker_shoves(["lowlevel=tracker", *_as_overrides(trial)], envs, seed)
     falls = np.round(go1["fell"] * envs)
@@ -188,7 +186,7 @@ def _fit_shoves(reference: list[str], before: dict, fitted: dict, envs: int, see
     record["curve"] = curve
     warnings += [f"shove: {why}" for why in [squeeze.shove_at_grid_bound(curve)] if why]
     fitted["fall"] = {
-        **{k: model[k] for k in FALL_KEYS},
+        **model,
         "shove_mps": round(curve["shove_mps"], 3),
         "shove_shape": round(curve["shove_shape"], 2),
     }

@@ -135,7 +135,7 @@ def tracker_shoves(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_
     def record(sim) -> None:
         robots = sim.lowlevel
         shove.append(robots.shove[:, 0].copy())
-        load_rate.append(-np.log1p(-robots.fall_probability(robots.load[:, 0])) / robots.fall["window_s"])
+        load_rate.append(robots.load_rate(robots.load[:, 0]))
 
     run = _graded_shove(overrides, envs, seed, pair_speeds, after=record)
     return {

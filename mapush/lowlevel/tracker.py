@@ -176,10 +176,13 @@ class Tracker:
         z = (np.asarray(load, dtype=np.float64) - f["load_n"]) / f["width_n"]
         return np.minimum(1.0 / (1.0 + np.exp(-np.clip(z, -60.0, 60.0))), MAX_FALL_PROBABILITY)
 
-    def shove_speed(self) -> np.ndarray:
-        """(E, A) m/s: each robot's speed against its commanded planar direction while its contacts drive it (their
-        net planar force has a positive component along its velocity); 0 otherwise, and for a zero command."""
-        force = self.constraint[:, self.qvel_idx[:, :2]]  # (E, A, 2)
+    def load_rate(self, load: np.ndarray) -> np.ndarray:
+        """The fall hazard rate (1/s) of a held load L (N): -ln(1 - P(L)) / window_s."""
+        return -np.log1p(-self.fall_probability(load)) / self.fall["window_s"]
+
+    def shove_speed(self, force: np.ndarray) -> np.ndarray:
+        """(E, A) m/s: each robot's speed against its commanded planar direction while its contacts, net planar force
+        `force` (E, A, 2), drive it (a positive component along its velocity); 0 otherwise, and for a zero command."""
         vel = self.qvel[:, self.qvel_idx[:, :2]]
         norm = np.linalg.norm(self.commanded, axis=-1)
         against = -(vel * self.commanded).sum(-1) / np.maximum(norm, 1e-9)
@@ -192,11 +195,11 @@ class Tracker:
         if self.fall is None:
             return
         f, blend = self.fall, min(1.0, dt / self.fall["filter_s"])
-        load = np.linalg.norm(self.constraint[:, self.qvel_idx[:, :2]], axis=-1)  # (E, A)
-        self.load += (load - self.load) * blend
-        rate = -np.log1p(-self.fall_probability(self.load)) / f["window_s"]
+        force = self.constraint[:, self.qvel_idx[:, :2]]  # (E, A, 2), read once for both hazards
+        self.load += (np.linalg.norm(force, axis=-1) - self.load) * blend
+        rate = self.load_rate(self.load)
         if self.shoves:
-            self.shove += (self.shove_speed() - self.shove) * blend
+            self.shove += (self.shove_speed(force) - self.shove) * blend
             rate = rate + (self.shove / f["shove_mps"]) ** f["shove_shape"] / f["window_s"]
         self.hazard += rate * dt
         self.fallen |= self.hazard >= self.threshold
