@@ -56,7 +56,8 @@ def falls(
 ) -> None:
     """Where a hierarchy's Go1s fall (lowlevel=go1, then the overrides): the evaluation's exception shares, and at
     each env's first fall the quartiles of the fallen robot's distances to the object, its nearest teammate and the
-    nearest obstacle, and how often its command was at full scale. With --go-on, how many fallen robots got up."""
+    nearest obstacle, how often its command was at full scale, and how it moved in the second before it tumbled,
+    beside every robot-step. With --go-on, how many fallen robots got up."""
     _check_episodes(episodes, target)
     from mapush.eval.probes import probe_falls
 

@@ -8,8 +8,10 @@ its run's config and the given overrides, and watch every step of each env's fir
   per step (`CommandWatch`). Used to compare seeds whose hierarchies transfer to Go1s differently.
 - `falls`: a hierarchy on Go1s (`lowlevel=go1`); at the first step where a robot tilts beyond the high level's
   `robot_tilt` limit, its distances (centre to centre) to the object, to its nearest teammate and to the nearest
-  obstacle block, and whether its command was at the mid level's full scale on every axis (`FallWatch`). Tells falls
-  while pushing or crowding from falls at walls or blocks.
+  obstacle block, whether its command was at the mid level's full scale on every axis, and how it moved over the
+  second before its tumble (`lead_signals`; against its command, off it, the object turning), beside how often every
+  robot-step's second passes the same levels (`FallWatch`). Tells falls while pushing or crowding from falls at walls
+  or blocks, and what comes before them; `lowlevel=tracker` runs the same on the tracker.
 - `progress`: a mid level's pushes, as trained and with other overrides: the object's distance to its subgoal at the
   start and at the end, and the robot-steps spent ahead of the object (on the subgoal's side of the line through its
   centre, square to the push) rather than behind it, where a pusher stands (`PushWatch`).
@@ -29,6 +31,7 @@ import torch
 from mapush.config import apply_overrides, compose_config, load_run_config, to_plain
 from mapush.eval.rollout import run_episodes
 from mapush.levels import checked, make_env
+from mapush.planning.geometry import rotate
 from mapush.planning.paths import length as path_length
 from mapush.rundir import resolve_checkpoint, shipped_run
 
@@ -38,6 +41,18 @@ FULL_SCALE = 0.99
 """A command at or beyond this share of the mid level's action scale on every axis is at full scale (`falls`)."""
 GOT_UP = 0.3
 """rad; a fallen robot tilted back under this has got up again (`falls --go-on`)."""
+LEAD_S, TUMBLE_S = 1.0, 1.0
+"""s; `falls` reports each motion signal's maximum over the LEAD_S before the last TUMBLE_S before a fall (the
+tumble itself, robot rolling over, left out)."""
+STILL_MPS = 0.1
+"""m/s; a planar command under this tells a robot to (nearly) stand (`falls`' `moved_still_mps`)."""
+LEAD_THRESHOLDS = {
+    "against_mps": (0.1, 0.2, 0.3),
+    "error_mps": (0.3, 0.5, 0.7),
+    "moved_still_mps": (0.1, 0.2, 0.3),
+    "object_turn_rps": (0.1, 0.2, 0.4),
+}
+"""The levels at which `falls` compares the falls' lead-up with every robot-step's (share beyond each)."""
 
 
 class Watch:
@@ -86,14 +101,35 @@ class CommandWatch(Watch):
         return {key: (total / self.steps).tolist() for key, total in totals.items()}
 
 
+def lead_signals(commands: torch.Tensor, state) -> dict[str, torch.Tensor]:
+    """(E, A) motion signals of one step: `against_mps`, the speed against the commanded planar direction (0 under
+    a command below STILL_MPS); `error_mps`, the planar speed off the command; `moved_still_mps`, the planar speed of
+    a robot told to stand (under STILL_MPS; 0 otherwise); `object_turn_rps`, how fast the object turns (rad/s, the
+    same for every robot of an env). Commands are body-frame, velocities world-frame."""
+    wanted = rotate(commands[..., :2], state.robot_yaw)  # (E, A, 2) world frame
+    vel = state.robot_vel[..., :2]
+    norm = wanted.norm(dim=-1)
+    moving = norm >= STILL_MPS
+    against = -(vel * wanted).sum(-1) / norm.clamp(min=1e-9)
+    return {
+        "against_mps": torch.where(moving, against.clamp(min=0.0), 0.0),
+        "error_mps": (vel - wanted).norm(dim=-1),
+        "moved_still_mps": torch.where(moving, 0.0, vel.norm(dim=-1)),
+        "object_turn_rps": state.object_vel[:, 2:3].abs().expand_as(norm),
+    }
+
+
 class FallWatch(Watch):
-    """Each env's first fall, whether that robot got up again before its episode ended, and how often any robot's
-    command is at full scale."""
+    """Each env's first fall, whether that robot got up again before its episode ended, how often any robot's
+    command is at full scale, and each motion signal's maximum over the LEAD_S before the fall (`lead_signals`),
+    with the share of all robot-steps whose trailing maximum passes each of LEAD_THRESHOLDS for comparison."""
 
     def __init__(self, max_tilt: float):
         self.max_tilt, self.falls, self.ended = max_tilt, [], None
         self.fallen = self.got_up = None  # (E,): the robot of each env's first fall (-1: none); it stood again
         self.robot_steps, self.saturated_steps = 0, 0  # over every robot and step of the first episodes
+        self.lead: list[dict[str, torch.Tensor]] = []  # the last LEAD_S of signals, oldest first
+        self.beyond = {key: torch.zeros(len(levels)) for key, levels in LEAD_THRESHOLDS.items()}  # robot-steps
 
     def capture(self, env, commands, reward, parts, done) -> None:
         s = env.state
@@ -102,6 +138,12 @@ class FallWatch(Watch):
             self.fallen = torch.full((env.num_envs,), -1)
             self.got_up = torch.zeros(env.num_envs, dtype=torch.bool)
         live = ~self.ended
+        tumble = round(TUMBLE_S / env.frame_dt)
+        self.lead = [*self.lead, lead_signals(commands, s)][-(max(1, round(LEAD_S / env.frame_dt)) + tumble) :]
+        before = self.lead[: max(1, len(self.lead) - tumble)]
+        peak = {key: torch.stack([step[key] for step in before]).amax(0) for key in LEAD_THRESHOLDS}  # (E, A)
+        for key, levels in LEAD_THRESHOLDS.items():
+            self.beyond[key] += (peak[key][live].unsqueeze(-1) > torch.tensor(levels)).sum((0, 1))
         fallen_tilt = s.robot_tilt.gather(1, self.fallen.clamp(min=0).unsqueeze(1)).squeeze(1)
         self.got_up |= live & (self.fallen >= 0) & (fallen_tilt < GOT_UP)
         fell = (s.robot_tilt > self.max_tilt).any(1) & (self.fallen < 0) & live
@@ -121,6 +163,7 @@ class FallWatch(Watch):
                     "teammate_m": float(teammates.min()) if len(teammates) else float("nan"),
                     "obstacle_m": float(blocks.min()) if len(blocks) else float("nan"),
                     "saturated_command": bool(saturated[e, a]),
+                    **{key: float(peak[key][e, a]) for key in LEAD_THRESHOLDS},
                 }
             )
 
@@ -187,6 +230,12 @@ def probe_falls(target: Path, episodes: int, overrides: list[str], go_on: bool =
         print(f"  {key:11s} " + " / ".join(f"{q:.2f}" for q in np.nanpercentile(values, [25, 50, 75])))
     saturated = np.mean([f["saturated_command"] for f in watch.falls])
     print(f"  commands at full scale on all three axes: {saturated:.2f} of the falls, {overall:.2f} of all robot-steps")
+    print(f"  maxima over {LEAD_S:g} s, {TUMBLE_S:g} s before: share beyond each level at falls / at all robot-steps")
+    for key, levels in LEAD_THRESHOLDS.items():
+        at_falls = [np.mean([f[key] > level for f in watch.falls]) for level in levels]
+        everywhere = (watch.beyond[key] / max(watch.robot_steps, 1)).tolist()
+        shares = zip(levels, at_falls, everywhere, strict=True)
+        print(f"    {key:16s}" + "  ".join(f"> {v:g}: {a:.2f} / {b:.2f}" for v, a, b in shares))
     if go_on:
         print(f"  got up again (tilt back under {GOT_UP} rad) before the episode ended: "
               f"{int(watch.got_up.sum())} of {len(watch.falls)} fallen robots")  # fmt: skip
