@@ -8,6 +8,10 @@ averages to standing still. It asks whether a legged robot stays up under comman
 the tracker may give (`mapush probe commands` measures how abrupt they are).
 
 The tracker does not model these falls (docs/fidelity.md, "Known open deviations"): this is the measurement.
+
+`replay_sweep` asks the same of recorded commands: the seconds before each fall of a hierarchy on Go1s
+(`mapush probe falls --replay`), replayed on free robots. If they topple free robots too, the commands alone are
+enough; if not, the fall needed what surrounded the robot.
 """
 
 from __future__ import annotations
@@ -55,6 +59,28 @@ def reversal_sweep(overrides: list[str], envs: int, seconds: float, seed: int, r
         "reversals": per_rate(flips / 3 / (steps * run["dt"])),
         "envs": envs,
         "seconds": seconds,
+    }
+
+
+def replay_sweep(overrides: list[str], sequences, dt: float, repeats: int) -> dict:
+    """Each of `sequences` ((N, T, 3), or N arrays (T, 3)), body-frame commands a policy step `dt` apart, replayed
+    on `repeats` free robots of `overrides` from standing: `fell` (N,), the share of its replays in which the robot
+    fell; `robot_vel` (N * repeats, T', 3), each replay's body-frame velocity at every step of the simulator's."""
+    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
+    played = np.repeat(np.asarray(sequences, dtype=float), repeats, 0)  # (N * repeats, T, 3)
+    step = {"at": 0}
+
+    def replaying(sim) -> np.ndarray:
+        t = min(int(step["at"] * sim.dt / dt + 1e-9), played.shape[1] - 1)
+        step["at"] += 1
+        return played[:, t]
+
+    run = run_steps(cfg, replaying, free_layout(len(played), DRAG_FRICTION), SETTLE_S, played.shape[1] * dt)
+    fell = (run["tilt"] > FALL_TILT).any(1)
+    return {
+        "fell": fell.reshape(len(played) // repeats, repeats).mean(1),
+        "robot_vel": run["robot_vel"],
+        "dt": run["dt"],
     }
 
 

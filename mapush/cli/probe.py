@@ -53,15 +53,29 @@ def falls(
     target: Path = typer.Argument(..., help=f"A high level: {TARGET}"),
     episodes: int = typer.Option(50, "--episodes", help="Episodes, one per env (seed 0)."),
     go_on: bool = typer.Option(False, "--go-on", help="A fall does not end the episode: see who gets up again."),
+    replay: int = typer.Option(
+        0, "--replay", help="Replay the 5 s of commands before each fall on this many free robots (0: none)."
+    ),
 ) -> None:
     """Where a hierarchy's Go1s fall (lowlevel=go1, then the overrides): the evaluation's exception shares, and at
     each env's first fall the quartiles of the fallen robot's distances to the object, its nearest teammate and the
     nearest obstacle, how often its command was at full scale, and how it moved in the second before it tumbled,
-    beside every robot-step. With --go-on, how many fallen robots got up."""
+    beside every robot-step. With --go-on, how many fallen robots got up; with --replay, whether the commands alone
+    topple the same robot walking free (the object parked away)."""
     _check_episodes(episodes, target)
+    if replay < 0:
+        raise BadInput(f"--replay {replay} must be a count; valid: 0 (none) or more")
     from mapush.eval.probes import probe_falls
 
-    probe_falls(target, episodes, list(ctx.args), go_on)
+    watch = probe_falls(target, episodes, list(ctx.args), go_on)
+    if replay and watch.histories:
+        from mapush.calibration.reversals import replay_sweep
+
+        robot = ["lowlevel=go1", *(a for a in ctx.args if a.startswith(("lowlevel", "sim.")))]
+        found = replay_sweep(robot, watch.histories, watch.dt, replay)
+        print(f"  replayed free ({' '.join(robot)}), {replay} robots a fall, the {len(watch.histories)} falls with "
+              f"{len(watch.histories[0]) * watch.dt:g} s of commands: {found['fell'].mean():.2f} fell; "
+              f"falls with any replay fallen: {int((found['fell'] > 0).sum())}")  # fmt: skip
 
 
 @probe_app.command()

@@ -46,6 +46,9 @@ LEAD_S, TUMBLE_S = 1.0, 1.0
 tumble itself, robot rolling over, left out)."""
 STILL_MPS = 0.1
 """m/s; a planar command under this tells a robot to (nearly) stand (`falls`' `moved_still_mps`)."""
+HISTORY_S = 5.0
+"""s; the commands `FallWatch` keeps of each fall's robot, up to its fall (`mapush probe falls --replay` replays
+them)."""
 LEAD_THRESHOLDS = {
     "against_mps": (0.1, 0.2, 0.3),
     "error_mps": (0.3, 0.5, 0.7),
@@ -129,6 +132,8 @@ class FallWatch(Watch):
         self.fallen = self.got_up = None  # (E,): the robot of each env's first fall (-1: none); it stood again
         self.robot_steps, self.saturated_steps = 0, 0  # over every robot and step of the first episodes
         self.lead: list[dict[str, torch.Tensor]] = []  # the last LEAD_S of signals, oldest first
+        self.history: list[torch.Tensor] = []  # the last HISTORY_S of commands (E, A, 3), oldest first
+        self.histories: list[np.ndarray] = []  # each fall's robot's commands (T, 3), when HISTORY_S of them exist
         self.beyond = {key: torch.zeros(len(levels)) for key, levels in LEAD_THRESHOLDS.items()}  # robot-steps
 
     def capture(self, env, commands, reward, parts, done) -> None:
@@ -138,6 +143,8 @@ class FallWatch(Watch):
             self.fallen = torch.full((env.num_envs,), -1)
             self.got_up = torch.zeros(env.num_envs, dtype=torch.bool)
         live = ~self.ended
+        self.dt = env.frame_dt  # s between the steps of `histories`
+        self.history = [*self.history, commands.clone()][-round(HISTORY_S / env.frame_dt) :]
         tumble = round(TUMBLE_S / env.frame_dt)
         self.lead = [*self.lead, lead_signals(commands, s)][-(max(1, round(LEAD_S / env.frame_dt)) + tumble) :]
         before = self.lead[: max(1, len(self.lead) - tumble)]
@@ -154,6 +161,8 @@ class FallWatch(Watch):
         for e in fell.nonzero().flatten().tolist():
             a = int(s.robot_tilt[e].argmax())
             self.fallen[e] = a
+            if len(self.history) == round(HISTORY_S / env.frame_dt):
+                self.histories.append(torch.stack([step[e, a] for step in self.history]).numpy())
             teammates = s.robot_distance[e, a][torch.arange(env.num_agents) != a]
             blocks = (env.obstacles[e, :, :2] - s.robot_xy[e, a]).norm(dim=1)
             self.falls.append(
@@ -204,10 +213,10 @@ def probe_commands(target: Path, episodes: int, overrides: list[str]) -> None:
         print(f"  {key:12s} (vx, vy, yaw rate): " + ", ".join(f"{v:.3f}" for v in values))
 
 
-def probe_falls(target: Path, episodes: int, overrides: list[str], go_on: bool = False) -> None:
+def probe_falls(target: Path, episodes: int, overrides: list[str], go_on: bool = False) -> FallWatch:
     """Print where a hierarchy's Go1s fall over `episodes` episodes: quartiles of the distances at each first fall.
     With `go_on`, a fall does not end the episode (`robot_tilt` left out of `level.terminal_exceptions`), and the
-    share of fallen robots that got up again is printed too."""
+    share of fallen robots that got up again is printed too. Returns the watcher (its `histories` to replay)."""
     if go_on:
         terminal = load_run_config(resolve_checkpoint(target)[0])["level"]["terminal_exceptions"]
         kept = ",".join(kind for kind in terminal if kind != "robot_tilt")
@@ -223,7 +232,7 @@ def probe_falls(target: Path, episodes: int, overrides: list[str], go_on: bool =
     overall = watch.saturated_steps / max(watch.robot_steps, 1)
     if not watch.falls:
         print(f"0 envs with a fall; commands at full scale on all three axes: {overall:.2f} of all robot-steps")
-        return
+        return watch
     print(f"{len(watch.falls)} envs with a fall; quartiles (25 / 50 / 75 %):")
     for key in ("time_s", "object_m", "teammate_m", "obstacle_m"):
         values = np.array([f[key] for f in watch.falls])
@@ -239,6 +248,7 @@ def probe_falls(target: Path, episodes: int, overrides: list[str], go_on: bool =
     if go_on:
         print(f"  got up again (tilt back under {GOT_UP} rad) before the episode ended: "
               f"{int(watch.got_up.sum())} of {len(watch.falls)} fallen robots")  # fmt: skip
+    return watch
 
 
 def probe_progress(target: Path, episodes: int, compare: list[str]) -> None:

@@ -47,6 +47,11 @@ def test_the_path_probe_prints_a_row_per_task(cli):
     assert float(row.split()[-1]) >= 1.0  # a path is no shorter than the straight line
 
 
+def test_a_fall_probe_replaying_a_negative_count_is_refused(cli):
+    shipped = Path(mapush.__file__).parent / "policies" / "cuboid" / "high"
+    assert_bad_input(cli("probe", "falls", shipped, "--replay", "-1"), "--replay -1", "valid: 0 (none) or more")
+
+
 def test_a_reversal_probe_of_no_robots_is_refused(cli):
     assert_bad_input(cli("probe", "reversals", "--envs", "0"), "--envs 0", "valid: --envs 1 or more")
 

@@ -76,6 +76,20 @@ def test_a_free_tracker_with_a_shove_curve_reversing_its_commands_never_falls():
     assert list(found["fell"]) == [0.0]
 
 
+def test_a_replayed_command_sequence_is_followed_at_its_own_step_and_a_free_tracker_does_not_fall():
+    from mapush.calibration.reversals import replay_sweep
+
+    ahead = np.zeros((10, 3))
+    ahead[:5, 0], ahead[5:, 0] = 0.4, -0.4  # 0.5 s ahead, then 0.5 s back, a step every 0.1 s
+    found = replay_sweep(["lowlevel=tracker", "sim.nthread=1", *_shoving()], np.stack([ahead, ahead[::-1]]), 0.1, 2)
+    assert list(found["fell"]) == [0.0, 0.0]
+    vx = found["robot_vel"][..., 0]  # (4, 50): each replay at every 0.02 s step
+    half = round(0.5 / found["dt"])
+    assert vx.shape == (4, 2 * half)
+    assert (vx[:2, half - 1] > 0.3).all() and (vx[:2, -1] < -0.3).all()  # the first sequence, twice
+    assert (vx[2:, half - 1] < -0.3).all() and (vx[2:, -1] > 0.3).all()  # the second, reversed
+
+
 def test_the_shove_fit_recovers_a_known_curve_from_synthetic_falls():
     """Starts held at a constant shove speed per group: their fall shares from a known curve, over many trials."""
     scale, shape, window, dt, steps = 0.15, 6.0, 4.0, 0.02, 300

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import pytest
 import torch
 
-from mapush.eval.probes import TUMBLE_S, CommandWatch, FallWatch, PushWatch, lead_signals
+from mapush.eval.probes import HISTORY_S, TUMBLE_S, CommandWatch, FallWatch, PushWatch, lead_signals
 
 
 def _env(object_xy, robot_xy, success):
@@ -117,3 +117,16 @@ def test_a_fall_reports_the_motion_before_its_tumble_not_during_it():
     steps = round(TUMBLE_S / 0.1) + 1
     assert watch.robot_steps == 3 * 2 * steps
     assert watch.beyond["against_mps"].tolist() == [steps, steps, 0]
+
+
+def test_a_fall_keeps_its_robots_commands_of_the_last_history_seconds():
+    watch = FallWatch(max_tilt=0.8)
+    steps = round(HISTORY_S / 0.1)
+    for k in range(steps + 3):  # env 1's robot 0 falls at the last step; each step's vx is its index
+        tilt = [[0.1, 0.1], [1.2 if k == steps + 2 else 0.1, 0.1], [0.1, 0.1]]
+        commands = torch.zeros(3, 2, 3)
+        commands[1, 0, 0] = float(k)
+        watch.capture(_tilted(tilt), commands, None, None, torch.zeros(3, dtype=bool))
+    (history,) = watch.histories
+    assert history.shape == (steps, 3) and watch.dt == 0.1
+    assert history[:, 0].tolist() == [float(k) for k in range(3, steps + 3)]  # oldest first, up to the fall
