@@ -54,7 +54,7 @@ def falls(
     episodes: int = typer.Option(50, "--episodes", help="Episodes, one per env (seed 0)."),
     go_on: bool = typer.Option(False, "--go-on", help="A fall does not end the episode: see who gets up again."),
     replay: int = typer.Option(
-        0, "--replay", help="Replay the 5 s of commands before each fall on this many free robots (0: none)."
+        0, "--replay", help="Replay the seconds of commands before each fall on this many free robots (0: none)."
     ),
 ) -> None:
     """Where a hierarchy's Go1s fall (lowlevel=go1, then the overrides): the evaluation's exception shares, and at

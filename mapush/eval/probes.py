@@ -124,8 +124,9 @@ def lead_signals(commands: torch.Tensor, state) -> dict[str, torch.Tensor]:
 
 class FallWatch(Watch):
     """Each env's first fall, whether that robot got up again before its episode ended, how often any robot's
-    command is at full scale, and each motion signal's maximum over the LEAD_S before the fall (`lead_signals`),
-    with the share of all robot-steps whose trailing maximum passes each of LEAD_THRESHOLDS for comparison."""
+    command is at full scale, each motion signal's maximum over the LEAD_S that end TUMBLE_S before the fall
+    (`lead_signals`), with the share of all robot-steps whose maximum so taken passes each of LEAD_THRESHOLDS for
+    comparison, and the fallen robot's last HISTORY_S of commands (`histories`, to replay)."""
 
     def __init__(self, max_tilt: float):
         self.max_tilt, self.falls, self.ended = max_tilt, [], None
