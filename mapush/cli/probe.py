@@ -71,7 +71,7 @@ def falls(
     if replay and watch.histories:
         from mapush.calibration.reversals import replay_sweep
 
-        robot = ["lowlevel=go1", *(a for a in ctx.args if a.startswith(("lowlevel", "sim.")))]
+        robot = _robot([a for a in ctx.args if a.startswith(("lowlevel", "sim."))])
         found = replay_sweep(robot, watch.histories, watch.dt, replay)
         print(f"  replayed free ({' '.join(robot)}), {replay} robots a fall, the {len(watch.histories)} falls with "
               f"{len(watch.histories[0]) * watch.dt:g} s of commands: {found['fell'].mean():.2f} fell; "

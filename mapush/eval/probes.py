@@ -145,7 +145,8 @@ class FallWatch(Watch):
             self.got_up = torch.zeros(env.num_envs, dtype=torch.bool)
         live = ~self.ended
         self.dt = env.frame_dt  # s between the steps of `histories`
-        self.history = [*self.history, commands.clone()][-round(HISTORY_S / env.frame_dt) :]
+        kept = round(HISTORY_S / env.frame_dt)  # steps of `history`
+        self.history = [*self.history, commands.clone()][-kept:]
         tumble = round(TUMBLE_S / env.frame_dt)
         self.lead = [*self.lead, lead_signals(commands, s)][-(max(1, round(LEAD_S / env.frame_dt)) + tumble) :]
         before = self.lead[: max(1, len(self.lead) - tumble)]
@@ -162,7 +163,7 @@ class FallWatch(Watch):
         for e in fell.nonzero().flatten().tolist():
             a = int(s.robot_tilt[e].argmax())
             self.fallen[e] = a
-            if len(self.history) == round(HISTORY_S / env.frame_dt):
+            if len(self.history) == kept:
                 self.histories.append(torch.stack([step[e, a] for step in self.history]).numpy())
             teammates = s.robot_distance[e, a][torch.arange(env.num_agents) != a]
             blocks = (env.obstacles[e, :, :2] - s.robot_xy[e, a]).norm(dim=1)
