@@ -37,6 +37,7 @@ UNSET_LATER_KEYS = {
     "lowlevel.fall": None,  # a tracker that cannot fall, as before the load-to-fall model
     "task.object.mass": None,  # the object's mass set apart from its parts' (the team study)
     "task.object.mass_range": None,  # the object's mass drawn per episode (the team study)
+    "level.action_gain": 1.0,  # the mid level's raw actions clipped as they are, as before the gain
 }
 """Keys added after stages were trained, with the value that leaves a stage as it was: at that value a key stays
 out of a stage's identity (and so does a parent it leaves empty), so the stages trained before it existed keep

@@ -14,6 +14,13 @@ from mapush.envs.pushing import PushEnv
 from mapush.envs.resets import sample_mid_layout
 
 
+def commands_from_actions(actions: torch.Tensor, gain: float, scale: torch.Tensor) -> torch.Tensor:
+    """Velocity commands (..., 3) from raw mid-level actions (..., 3): `gain` x action, clipped to [-1, 1], times
+    `scale` (`level.action_gain`, `level.action_scale`). At gain 0.5 a command saturates only at a raw output of 2,
+    as in the original's chain."""
+    return (gain * actions).clamp(-1.0, 1.0) * scale
+
+
 class MidPushEnv(PushEnv):
     """E envs x A robots pushing one object each toward a subgoal 1.5-3 m away; one policy row per robot.
 
@@ -26,6 +33,7 @@ class MidPushEnv(PushEnv):
     def __init__(self, cfg: dict, num_envs: int | None = None, evaluation: bool = False):
         super().__init__(cfg, num_envs, rows=cfg["task"]["num_agents"], evaluation=evaluation)
         self.action_scale = torch.tensor(cfg["level"]["action_scale"], dtype=torch.float32)
+        self.action_gain = float(cfg["level"]["action_gain"])
         self.num_actions = len(self.action_scale)  # (vx, vy, yaw rate)
         self.subgoal_distance = torch.zeros(self.num_envs)
         self.prev_subgoal_distance = torch.zeros(self.num_envs)  # set by reset(), then after every step's rewards
@@ -52,13 +60,13 @@ class MidPushEnv(PushEnv):
         """Advance every env by one policy step.
 
         Args:
-            actions: raw policy outputs, (E, A, 3); clipped to [-1, 1] and scaled to (vx, vy, yaw rate).
+            actions: raw policy outputs, (E, A, 3); turned into (vx, vy, yaw rate) by `commands_from_actions`.
 
         Returns:
             obs (after resets), rewards (E, A), terminated (E,) success or exception, truncated (E,) timeout,
             info with `log` (means over the episodes that ended this step) and `episode_end` per-env outcomes.
         """
-        commands = actions.clamp(-1.0, 1.0) * self.action_scale
+        commands = commands_from_actions(actions, self.action_gain, self.action_scale)
         failed = self.sim.step(commands)
         self._read_state()
         self.episode_step += 1

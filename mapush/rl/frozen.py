@@ -6,6 +6,7 @@ from pathlib import Path
 
 import torch
 
+from mapush.envs.mid import commands_from_actions
 from mapush.envs.observations import local_dim
 from mapush.errors import BadInput
 from mapush.rl.policy import load_policy
@@ -18,17 +19,19 @@ class FrozenMid:
         policy: local observations (n, d) -> actions (n, 3).
         action_scale: the mid level's (vx, vy, yaw rate) scale of the clipped actions.
         checkpoint: where it came from.
+        action_gain: the mid level's gain on its raw actions before the clip.
     """
 
-    def __init__(self, policy, action_scale: torch.Tensor, checkpoint: Path):
+    def __init__(self, policy, action_scale: torch.Tensor, checkpoint: Path, action_gain: float = 1.0):
         self.policy, self.action_scale, self.checkpoint = policy, action_scale, checkpoint
+        self.action_gain = action_gain
 
     def commands(self, local_obs: torch.Tensor) -> torch.Tensor:
         """Velocity commands (E, A, 3) from the robots' local observations (E, A, d)."""
         E, A, d = local_obs.shape
         with torch.inference_mode():
             actions = self.policy(local_obs.reshape(E * A, d))
-        return actions.reshape(E, A, 3).clamp(-1.0, 1.0) * self.action_scale
+        return commands_from_actions(actions.reshape(E, A, 3), self.action_gain, self.action_scale)
 
 
 def load_mid_policy(target: str | Path | None, task_cfg: dict, level: str = "mid") -> FrozenMid:
@@ -51,4 +54,4 @@ def load_mid_policy(target: str | Path | None, task_cfg: dict, level: str = "mid
             f"{wanted[1]}; valid: a mid run of task={wanted[0]} task.num_agents={wanted[1]}"
         )
     scale = torch.tensor(mid_cfg["level"]["action_scale"], dtype=torch.float32)
-    return FrozenMid(policy.actor, scale, policy.checkpoint)
+    return FrozenMid(policy.actor, scale, policy.checkpoint, float(mid_cfg["level"]["action_gain"]))

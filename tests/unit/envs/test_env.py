@@ -124,6 +124,16 @@ def test_actions_are_clipped_to_one(make_env):
     assert torch.equal(fast.state.robot_xy, clipped.state.robot_xy)
 
 
+def test_an_action_gain_scales_raw_actions_before_the_clip(make_env):
+    # the original's chain, 0.5 clip(0.5 a): raw 1.2 drives as 0.6 does at gain 1, raw 4 as full scale
+    halved, plain = make_env("debug=smoke", "level.action_gain=0.5", num_envs=2), make_env("debug=smoke", num_envs=2)
+    for raw, as_plain in ((1.2, 0.6), (4.0, 1.0)):
+        for _ in range(5):
+            halved.step(torch.full((2, 2, 3), raw))
+            plain.step(torch.full((2, 2, 3), as_plain))
+        assert torch.equal(halved.state.robot_xy, plain.state.robot_xy)
+
+
 def test_auto_reset_restarts_only_the_env_that_finished(env):
     env.step(ZERO)
     env.subgoal_xy[1] = env.state.object_xy[1]  # env 1 reaches its subgoal on the next step

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from mapush.envs.high import HighPushEnv
-from mapush.envs.observations import high_obs_dim
+from mapush.envs.observations import high_obs_dim, local_dim
 from mapush.planning.geometry import point_distance
 from mapush.planning.paths import resample
 from mapush.planning.planner import PlanResult
@@ -41,6 +41,18 @@ class RecordingMid:
         # object-subgoal distance the mid level is asked to close
         self.subgoal_distances.append(torch.linalg.vector_norm(local_obs[..., 0:2] - local_obs[..., 2:4], dim=-1))
         return self.mid.commands(local_obs)
+
+
+def test_the_frozen_mid_level_drives_with_its_runs_action_gain(run_copy):
+    from conftest import composed
+
+    config = run_copy / "config.yaml"
+    config.write_text(config.read_text().replace("action_gain: 1.0", "action_gain: 0.5"))
+    frozen = load_mid_policy(run_copy, composed("level=high")["task"])
+    obs = torch.randn(5, 2, local_dim(2), generator=torch.Generator().manual_seed(0)) * 3
+    raw = frozen.policy(obs.reshape(10, -1)).reshape(5, 2, 3).detach()
+    assert frozen.action_gain == 0.5
+    assert torch.allclose(frozen.commands(obs), 0.5 * torch.clamp(0.5 * raw, -1.0, 1.0))  # action_scale 0.5
 
 
 def test_step_shapes_and_no_nan(high_cfg, mid):
