@@ -18,13 +18,13 @@ class FrozenMid:
     Args:
         policy: local observations (n, d) -> actions (n, 3).
         action_scale: the mid level's (vx, vy, yaw rate) scale of the clipped actions.
-        checkpoint: where it came from.
         action_gain: the mid level's gain on its raw actions before the clip.
+        checkpoint: where it came from.
     """
 
-    def __init__(self, policy, action_scale: torch.Tensor, checkpoint: Path, action_gain: float = 1.0):
-        self.policy, self.action_scale, self.checkpoint = policy, action_scale, checkpoint
-        self.action_gain = action_gain
+    def __init__(self, policy, action_scale: torch.Tensor, action_gain: float, checkpoint: Path):
+        self.policy, self.checkpoint = policy, checkpoint
+        self.action_scale, self.action_gain = action_scale, action_gain
 
     def commands(self, local_obs: torch.Tensor) -> torch.Tensor:
         """Velocity commands (E, A, 3) from the robots' local observations (E, A, d)."""
@@ -54,4 +54,4 @@ def load_mid_policy(target: str | Path | None, task_cfg: dict, level: str = "mid
             f"{wanted[1]}; valid: a mid run of task={wanted[0]} task.num_agents={wanted[1]}"
         )
     scale = torch.tensor(mid_cfg["level"]["action_scale"], dtype=torch.float32)
-    return FrozenMid(policy.actor, scale, policy.checkpoint, float(mid_cfg["level"]["action_gain"]))
+    return FrozenMid(policy.actor, scale, float(mid_cfg["level"]["action_gain"]), policy.checkpoint)
