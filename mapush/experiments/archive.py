@@ -51,8 +51,12 @@ def job_key(job_dir: Path | str) -> tuple[str, str]:
 
 
 def _result_files(root: Path, skip: list[Path]) -> list[Path]:
-    """Every job's current and superseded result under `root`, less those under the dirs `skip`."""
-    found = [*Path(root).glob(f"**/{RESULT}"), *Path(root).glob(f"**/{SUPERSEDED}")]
+    """Every job's current result under `root`, and the result it superseded, less those under the dirs `skip`.
+    A superseded result whose job has no current one (running again now) is left out: until the new result
+    exists, the archive keeps the old one as the job's current result, and counting it twice would double its
+    cost."""
+    current = list(Path(root).glob(f"**/{RESULT}"))
+    found = [*current, *(p.parent / SUPERSEDED for p in current if (p.parent / SUPERSEDED).is_file())]
     skip = [s.resolve() for s in skip]
     return sorted(p for p in found if not any(s in p.resolve().parents for s in skip))
 

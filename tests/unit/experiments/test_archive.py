@@ -95,6 +95,18 @@ def test_a_job_in_the_runs_and_the_archive_counts_once_the_newer_result(runs, tm
     assert measured_cost(results)["evaluated_again"] == 1
 
 
+def test_a_job_running_again_is_archived_only_once_its_new_result_exists(runs, tmp_path):
+    archive = tmp_path / "jobs"
+    archive_results(runs, archive)
+    job = runs / "sweeps" / "main_quick" / "method=ours,seed=1,task=cuboid"
+    (job / RESULT).rename(job / SUPERSEDED)  # as `run_job` leaves a job it runs again, until it finishes
+    written, unchanged = archive_results(runs, archive)
+    assert (written, unchanged) == ([], 1)
+    archived = archive / "main_quick" / job.name
+    assert not (archived / SUPERSEDED).exists() and (archived / RESULT).is_file()
+    assert measured_cost(load_results([archive]))["evaluated_again"] == 0
+
+
 def test_archive_rejects_a_missing_runs_dir_and_writes_nothing(cli, tmp_path):
     proc = cli("archive", "--runs", tmp_path / "nowhere", "--out", tmp_path / "jobs")
     assert proc.returncode == 2 and "nowhere" in proc.stderr and "valid" in proc.stderr
