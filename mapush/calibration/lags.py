@@ -39,15 +39,23 @@ def step_commands(steps: list[float]) -> np.ndarray:
 
 
 def run_steps(
-    cfg: dict, commands, layout: dict, settle_s: float, duration_s: float, configure=None, during=None, after=None
+    cfg: dict,
+    commands,
+    layout: dict,
+    settle_s: float,
+    duration_s: float,
+    configure=None,
+    during=None,
+    after=None,
+    substep=None,
 ) -> dict[str, np.ndarray]:
     """Stand for `settle_s`, then hold `commands` (E, 3), every robot of an env told the same, or (E, A, 3), or
     follow `commands(sim)`, called before every step for that step's (E, 3), for `duration_s`. Returns, at every
     policy step of the hold: `robot_vel` (E, T, 3), robot 0's body-frame velocity; `object_speed` (E, T), the
     object's planar speed; `tilts` (E, T, A), every robot's tilt, and `tilt` (E, T), the most tilted robot's. E is
-    the layout's. `configure(sim)` may edit per-env model
-    values first; `during(sim)` runs before every step of the hold (e.g. to apply a load), `after(sim)` after it (e.g.
-    to read the low level's state)."""
+    the layout's. `configure(sim)` may edit per-env model values first; `during(sim)` runs before every step of the
+    hold (e.g. to apply a load), `after(sim)` after it (e.g. to read the low level's state), `substep(sim)` after
+    each of its physics steps (e.g. to read contacts)."""
     n, agents = len(layout["object_xy"]), int(cfg["task"]["num_agents"])
     backend = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
     sim = PushSim(cfg["sim"], cfg["task"], backend, n)
@@ -67,7 +75,7 @@ def run_steps(
     for _ in range(round(duration_s / sim.dt)):
         if during is not None:
             during(sim)
-        sim.step(as_input(commands(sim)) if held is None else held)
+        sim.step(as_input(commands(sim)) if held is None else held, substep and (lambda: substep(sim)))
         if after is not None:
             after(sim)
         state = sim.read()

@@ -1,7 +1,8 @@
 """`mapush probe`: what a trained level does inside its evaluation's episodes (commands, falls, progress), how
-long the paths are that the high level is evaluated on (paths), and how often a low level's robot falls under
-reversing commands (reversals) or squeezed by its teammates (squeeze). The figures come from `mapush.eval.probes`,
-`mapush.calibration.reversals` and `mapush.calibration.squeeze`."""
+long the paths are that the high level is evaluated on (paths), how often a low level's robot falls under
+reversing commands (reversals) or squeezed by its teammates (squeeze), and which of its parts push the object
+(contacts). The figures come from `mapush.eval.probes` and `mapush.calibration`'s reversals, squeeze and
+contacts."""
 
 from __future__ import annotations
 
@@ -145,6 +146,26 @@ def squeeze(
     from mapush.calibration.squeeze import print_squeeze
 
     print_squeeze(_robot(ctx.args), envs, seed)
+
+
+@probe_app.command(context_settings=PASS_THROUGH)
+def contacts(
+    ctx: typer.Context,
+    speeds: str = typer.Option("0.3,0.5", "--speeds", help="Comma-separated command speeds, m/s."),
+    envs: int = typer.Option(16, "--envs", help="Starts per speed."),
+    seed: int = typer.Option(0, "--seed", help="Draws the starts (a lateral offset and a heading error each)."),
+) -> None:
+    """How a low level's robot pushes the cuboid: which of its parts touch it, how hard (read at every physics step),
+    and how fast the object goes against the command (overrides choose the robot; default lowlevel=go1)."""
+    try:
+        values = [float(v) for v in speeds.split(",") if v.strip()]
+    except ValueError:
+        values = []
+    if envs < 1 or not values or any(not v > 0 for v in values):
+        raise BadInput(f"--envs {envs} --speeds {speeds}; valid: --envs 1 or more, --speeds positive m/s, e.g. 0.3,0.5")
+    from mapush.calibration.contacts import print_contacts
+
+    print_contacts(_robot(ctx.args), values, envs, seed)
 
 
 def _robot(overrides: list[str]) -> list[str]:

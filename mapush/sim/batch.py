@@ -84,15 +84,21 @@ class BatchSim:
         """Policy step, s: timestep * decimation."""
         return float(self.model.opt.timestep) * self.decimation
 
-    def advance(self) -> np.ndarray:
-        """Step every env `decimation` physics steps with the current controls.
+    def advance(self, substep=None) -> np.ndarray:
+        """Step every env `decimation` physics steps with the current controls; `substep()`, when given, is called
+        after each physics step (a probe reading contacts, which a policy step's last state alone would undersample).
 
         Returns:
             Env ids whose simulation failed (diverged): an error, or a state MuJoCo found bad and reset to the model's
             defaults (`BAD_STATE_WARNINGS`). Their state is left for the caller to reset. Shape: (n,).
         """
         try:
-            self.batch.step(nstep=self.decimation)
+            if substep is None:
+                self.batch.step(nstep=self.decimation)
+            else:
+                for _ in range(self.decimation):
+                    self.batch.step(nstep=1)
+                    substep()
             failed = np.empty(0, dtype=np.int64)
         except mjb.SimulationError as err:
             failed = np.asarray(err.ids, dtype=np.int64)

@@ -69,10 +69,11 @@ class PushSim(BatchSim):
         self.object_mass = None  # per-env body mass and inertia, made at the first layout that sets a `mass`
         self.batch.reset()
 
-    def step(self, commands: torch.Tensor) -> np.ndarray:
-        """Apply body-frame commands (E, A, 3) for one policy step; returns the env ids that failed (`advance`)."""
+    def step(self, commands: torch.Tensor, substep=None) -> np.ndarray:
+        """Apply body-frame commands (E, A, 3) for one policy step; returns the env ids that failed (`advance`, which
+        calls `substep()` after every physics step when given)."""
         self.lowlevel.command(self.ctrl, self.qpos, self.qvel, commands.numpy().astype(np.float64))
-        failed = self.advance()
+        failed = self.advance(substep)
         self.lowlevel.after_step(self.dt)
         return failed
 

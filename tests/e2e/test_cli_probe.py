@@ -82,3 +82,7 @@ def test_the_fall_probe_lets_episodes_go_on_after_a_fall(cli):
     assert proc.returncode == 0, proc.stderr
     first, last = proc.stdout.strip().splitlines()[-2:]
     assert first.startswith("success ") and last.startswith("0 envs with a fall")
+
+
+def test_a_contact_probe_of_a_negative_speed_is_refused(cli):
+    assert_bad_input(cli("probe", "contacts", "--speeds", "0.3,-1"), "--speeds 0.3,-1", "valid:")
