@@ -39,9 +39,9 @@ def _time_env(env, steps: int, gen: torch.Generator) -> tuple[float, list[np.nda
     sim, controls = env.sim, []
     advance = sim.advance
 
-    def recorded() -> np.ndarray:
+    def recorded(substep=None) -> np.ndarray:
         controls.append(sim.ctrl.copy())
-        return advance()
+        return advance(substep)
 
     sim.advance = recorded
     try:

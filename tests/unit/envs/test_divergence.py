@@ -43,8 +43,8 @@ def after_physics(monkeypatch, env, write=None, failed=()) -> None:
     """Make the physics step of every env run as usual, then `write(qpos)` into the state and report `failed`."""
     advance = env.sim.advance
 
-    def patched() -> np.ndarray:
-        reported = advance()
+    def patched(substep=None) -> np.ndarray:
+        reported = advance(substep)
         if write is not None:
             write(env.sim.qpos)
         return np.union1d(reported, np.asarray(failed, dtype=np.int64))
