@@ -1,11 +1,11 @@
 """How a robot pushes: which of its parts touch the object, how hard, and how fast the object goes for it.
 
-One robot starts right behind the cuboid (the task's own mass, its floor friction the middle of the task's range)
-and walks into it at each command speed for `PUSH_S`. After every physics step (not only every policy step: a
-swinging leg's contact lasts a few of them) the contact forces on the object are read and added up per robot part
-(the body's name less the robot's and the leg's prefix: `trunk`, `hip`, `thigh`, `calf` for the Go1, whose foot is
-part of its calf; `base` for the tracker), with the floor's beside them. The first `SETTLE_IN_S` of each push, while
-the robot reaches the object, is left out.
+One robot starts right behind the object (the cuboid unless an override names another task; the task's own mass,
+its floor friction the middle of the task's range) and walks into it at each command speed for `PUSH_S`. After
+every physics step (not only every policy step: a swinging leg's contact lasts a few of them) the contact forces on
+the object are read and added up per robot part (the body's name less the robot's and the leg's prefix: `trunk`,
+`hip`, `thigh`, `calf` for the Go1, whose foot is part of its calf; `base` for the tracker), with the floor's beside
+them. The first `SETTLE_IN_S` of each push, while the robot reaches the object, is left out.
 
 Reported per speed: the object's speed (mean, 99th percentile, largest) against the command, and per part the share
 of physics steps it touches the object, its mean, 99th-percentile and largest push along the command, and its share
@@ -89,9 +89,11 @@ def object_forces(sim, parts: int, part_of_body: np.ndarray) -> np.ndarray:
 
 
 def contact_sweep(overrides: list[str], speeds: list[float], repeats: int, seed: int) -> list[dict]:
-    """The robot of `overrides` pushing the cuboid at each of `speeds` (m/s), `repeats` starts each. Per speed:
+    """The robot of `overrides` pushing the object (the cuboid unless they name a task) at each of `speeds` (m/s),
+    `repeats` starts each. Per speed:
     `speed`, `object_speed` (E, T) per policy step, `force` (E, S, P) N per physics step and part, `parts` (P,)."""
-    cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
+    task = [] if any(o.startswith("task=") for o in overrides) else ["task=cuboid"]
+    cfg = to_plain(compose_config([*task, *overrides, "task.num_agents=1"]))
     offset, heading = starts(repeats, seed)
     layout = behind_cuboid(cfg, offset, heading)
     layout["friction"][:] = float(np.mean(cfg["task"]["object"]["friction"]))
@@ -128,7 +130,7 @@ def jolt_shares(push: dict) -> np.ndarray:
 def print_contacts(overrides: list[str], speeds: list[float], repeats: int, seed: int) -> None:
     """`mapush probe contacts`: per speed, the object's speed, then one line per part."""
     robot = " ".join(overrides) or "the default low level"
-    print(f"{robot}: {repeats} starts a speed, pushing the cuboid for {PUSH_S:g} s (the first {SETTLE_IN_S:g} s left "
+    print(f"{robot}: {repeats} starts a speed, pushing the object for {PUSH_S:g} s (the first {SETTLE_IN_S:g} s left "
           "out); forces along the command, read at every physics step")  # fmt: skip
     for push in contact_sweep(overrides, speeds, repeats, seed):
         v, f = push["object_speed"], push["force"]

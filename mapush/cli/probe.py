@@ -155,8 +155,9 @@ def contacts(
     envs: int = typer.Option(16, "--envs", help="Starts per speed."),
     seed: int = typer.Option(0, "--seed", help="Draws the starts (a lateral offset and a heading error each)."),
 ) -> None:
-    """How a low level's robot pushes the cuboid: which of its parts touch it, how hard (read at every physics step),
-    and how fast the object goes against the command (overrides choose the robot; default lowlevel=go1)."""
+    """How a low level's robot pushes an object alone: which of its parts touch it, how hard (read at every physics
+    step), and how fast the object goes against the command (overrides choose the robot, default lowlevel=go1, and
+    the object, default task=cuboid)."""
     try:
         values = [float(v) for v in speeds.split(",") if v.strip()]
     except ValueError:
