@@ -10,7 +10,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app
+from mapush.cli.app import PASS_THROUGH, app, number_list
 from mapush.errors import BadInput
 
 probe_app = typer.Typer(
@@ -158,12 +158,9 @@ def contacts(
     """How a low level's robot pushes an object alone: which of its parts touch it, how hard (read at every physics
     step), and how fast the object goes against the command (overrides choose the robot, default lowlevel=go1, and
     the object, default task=cuboid)."""
-    try:
-        values = [float(v) for v in speeds.split(",") if v.strip()]
-    except ValueError:
-        values = []
-    if envs < 1 or not values or any(not v > 0 for v in values):
-        raise BadInput(f"--envs {envs} --speeds {speeds}; valid: --envs 1 or more, --speeds positive m/s, e.g. 0.3,0.5")
+    values = number_list(speeds, "--speeds", kind=float, minimum=0.01)
+    if envs < 1:
+        raise BadInput(f"--envs {envs}; valid: --envs 1 or more")
     from mapush.calibration.contacts import print_contacts
 
     print_contacts(_robot(ctx.args), values, envs, seed)

@@ -85,4 +85,4 @@ def test_the_fall_probe_lets_episodes_go_on_after_a_fall(cli):
 
 
 def test_a_contact_probe_of_a_negative_speed_is_refused(cli):
-    assert_bad_input(cli("probe", "contacts", "--speeds", "0.3,-1"), "--speeds 0.3,-1", "valid:")
+    assert_bad_input(cli("probe", "contacts", "--speeds", "0.3,-1"), "--speeds '0.3,-1'", "valid: comma-separated")
