@@ -118,16 +118,17 @@ def load_results(roots: list[Path]) -> list[JobResult]:
     return [chosen[key] for key in sorted(chosen)]
 
 
-def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> Path | None:
-    """The job's `result.json` in the archive (`cfg.archive`, `mapush archive`), if it is there and finished as the
-    experiment plans the job now (`planned`): such a job is done, though its runs are on another machine or gone."""
+def archived_result(cfg: DictConfig, job_dir: Path, planned: list[PlannedStage]) -> tuple[Path, Change | None] | None:
+    """The job's `result.json` in the archive (`cfg.archive`, `mapush archive`), with what makes it other than the
+    experiment plans the job now (`planned`): None when it finished as planned, and is done though its runs are on
+    another machine or gone. None when the archive holds no result of the job."""
     if not cfg.get("archive"):
         return None
     archive = Path(cfg.archive)
     path = archive.joinpath(*job_key(job_dir), RESULT)
     if not path.is_file():
         return None
-    return None if result_changes(read_result(path), cfg, planned, archive) else path
+    return path, result_changes(read_result(path), cfg, planned, archive)
 
 
 def result_roots(cfg: DictConfig) -> list[Path]:

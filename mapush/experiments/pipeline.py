@@ -4,7 +4,8 @@ of another trained stage an evaluation names), write `result.json`.
 Stages live in the sweep root's store (`stages.py`), one run per stage identity, shared by every job and
 experiment that composes the same stage; a job dir holds `result.json`, which names the run dir of each stage.
 Re-running a job keeps its `result.json` while the experiment plans the job as it was made (else it says so, and
-with `rerun_changed` runs it again); it reuses stages whose run is finished (it has the exported policy), resumes a
+with `rerun_changed` runs it again); so does a job whose result is only in the archive (`mapush archive`), its runs
+gone: run again, it keeps the archived result as the one it supersedes. It reuses stages whose run is finished (it has the exported policy), resumes a
 stage cut after a checkpoint, and restarts one cut before.
 
 Besides the evaluated stage's learning curve (`curve`), a budget may ask for the curves of the stages trained
@@ -85,13 +86,23 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
     planned = planned_stages(cfg)
     earlier = None  # a result the experiment has changed under: what of it still holds is kept
     archived = None if done.is_file() else archived_result(cfg, job_dir, planned)
-    if archived is not None:  # finished on another machine
-        print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived.parent}")
-        return read_result(archived)
+    if archived is not None and archived[1] is None:  # finished on another machine
+        print(f"mapush: {job_dir.name}: finished as planned now, archived in {archived[0].parent}")
+        return read_result(archived[0])
     made = None if done.is_file() else job_made_already(cfg, job_dir, planned)
     if made is not None:  # another sweep's job made all this one would
         print(f"mapush: {job_dir.name}: made already as {made[0].job_dir}; its result taken, nothing trained")
         return write_result(done, _taken(cfg, job_dir, *made))
+    if archived is not None and not (job_dir / SUPERSEDED).is_file():  # made otherwise, on a machine now gone
+        path, changed = archived
+        if not cfg.rerun_changed:
+            print(f"mapush: {job_dir.name}: {changed} since its archived {RESULT}; kept (rerun_changed=true runs it "
+                  "again)")  # fmt: skip
+            return read_result(path)
+        print(f"mapush: {job_dir.name}: {changed} since its archived {RESULT}; running again what changed "
+              f"({SUPERSEDED} keeps the archived one)")  # fmt: skip
+        job_dir.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, job_dir / SUPERSEDED)
     if done.is_file():
         result = read_result(done)
         changed = result_changes(result, cfg, planned)

@@ -21,7 +21,7 @@ from mapush.config import CONF_DIR, compose_config, load_run_config
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.experiments.archive import archived_result, job_made_already, load_results, result_roots
-from mapush.experiments.results import RESULT, read_result
+from mapush.experiments.results import RESULT, SUPERSEDED, read_result
 from mapush.experiments.staleness import result_changes
 from mapush.experiments.sweep_axes import planned_jobs, split_axes, sweep_overrides
 from mapush.experiments.workers import SWEEP_PID, job_threads, stop_with_the_sweep
@@ -70,14 +70,16 @@ def dry_run(overrides: list[str]) -> list[dict]:
     for planned_job in jobs:
         cfg, planned, job = planned_job.cfg, planned_job.stages, planned_job.name(unnamed)
         result = Path(hydra_cfg.sweep.dir) / job / RESULT
-        if not result.is_file() and archived_result(cfg, result.parent, planned) is not None:
+        archived = None if result.is_file() else archived_result(cfg, result.parent, planned)
+        if archived is not None and archived[1] is None:
             finished += 1  # finished on another machine, and archived (`mapush archive`)
             continue
         if not result.is_file() and job_made_already(cfg, result.parent, planned, finished_results) is not None:
             finished, taken = finished + 1, taken + 1  # made already by another sweep's job
             continue
-        if result.is_file():
-            why = result_changes(read_result(result), cfg, planned)
+        running_again = (result.parent / SUPERSEDED).is_file()  # cut while running again: it goes on
+        if result.is_file() or (archived is not None and not running_again):
+            why = result_changes(read_result(result), cfg, planned) if result.is_file() else archived[1]
             finished += 1
             if not why:
                 continue  # finished as planned now: nothing to train or evaluate

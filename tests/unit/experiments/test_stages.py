@@ -535,6 +535,34 @@ def test_a_job_another_sweep_made_already_is_its_twin_until_an_evaluation_or_cur
     assert archive.job_made_already(scale, job, planned_stages(scale)) is None
 
 
+@pytest.mark.slow
+def test_a_job_archived_under_another_recipe_is_kept_or_with_rerun_changed_trained_again_superseding_it(
+    tmp_path, capsys
+):
+    base = ["experiment=ocb_ablation", "method=ours", "budget=smoke", "overrides=['debug=smoke']"]
+    made = tmp_path / "made" / "sweep"  # the machine that made the job, its runs gone afterwards
+    (made / "job").mkdir(parents=True)  # Hydra makes a job's dir
+    first = run_job(compose_config([*base, f"sweep_root={made.parent}", "archive=null"], config_name="sweep"),
+                    made / "job", 1)  # fmt: skip
+    jobs = tmp_path / "jobs"
+    archive.archive_results(made.parent, jobs)
+    longer = [
+        *base,
+        f"sweep_root={tmp_path / 'here'}",
+        f"archive={jobs}",
+        "experiment.budgets.smoke.stages.mid.env_steps=64",
+    ]
+    job = tmp_path / "here" / "sweep" / "job"
+    capsys.readouterr()
+    kept = run_job(compose_config(longer, config_name="sweep"), job, 1)
+    assert kept.evals == first.evals and not job.exists()  # nothing trained, nothing written
+    assert "since its archived result.json; kept (rerun_changed=true runs it again)" in capsys.readouterr().out
+    again = run_job(compose_config([*longer, "rerun_changed=true"], config_name="sweep"), job, 1)
+    assert read_result(job / SUPERSEDED).evals == first.evals and again.supersedes == SUPERSEDED
+    assert identity_of(Path(again.stages["mid"])) != identity_of(Path(first.stages["mid"]))
+    assert read_result(job / RESULT) == again
+
+
 def test_a_job_refuses_code_older_than_the_package_files_and_trains_nothing(tmp_path, monkeypatch):
     # as if every file of mapush had been saved after this process imported it (a sweep's worker, mid-edit)
     monkeypatch.setattr(pipeline, "LOADED_AT", 0.0)
