@@ -90,8 +90,8 @@ def object_forces(sim, parts: int, part_of_body: np.ndarray) -> np.ndarray:
 
 def contact_sweep(overrides: list[str], speeds: list[float], repeats: int, seed: int) -> list[dict]:
     """The robot of `overrides` pushing the object (the cuboid unless they name a task) at each of `speeds` (m/s),
-    `repeats` starts each. Per speed:
-    `speed`, `object_speed` (E, T) per policy step, `force` (E, S, P) N per physics step and part, `parts` (P,)."""
+    `repeats` starts each. Per speed: `speed`; `object_speed` (E, T), m/s at every policy step; `force` (E, S, P),
+    N at every physics step from each of `parts` (P,); `substeps`, physics steps per policy step (S = T x it)."""
     task = [] if any(o.startswith("task=") for o in overrides) else ["task=cuboid"]
     cfg = to_plain(compose_config([*task, *overrides, "task.num_agents=1"]))
     offset, heading = starts(repeats, seed)
