@@ -5,8 +5,8 @@ Stages live in the sweep root's store (`stages.py`), one run per stage identity,
 experiment that composes the same stage; a job dir holds `result.json`, which names the run dir of each stage.
 Re-running a job keeps its `result.json` while the experiment plans the job as it was made (else it says so, and
 with `rerun_changed` runs it again); so does a job whose result is only in the archive (`mapush archive`), its runs
-gone: run again, it keeps the archived result as the one it supersedes. It reuses stages whose run is finished (it has the exported policy), resumes a
-stage cut after a checkpoint, and restarts one cut before.
+gone: run again, it keeps the archived result as the one it supersedes. It reuses stages whose run is finished (it
+has the exported policy), resumes a stage cut after a checkpoint, and restarts one cut before.
 
 Besides the evaluated stage's learning curve (`curve`), a budget may ask for the curves of the stages trained
 before it (`curve.stages`, e.g. the mid level under a high level): each is drawn once, on the stage's own env, into
