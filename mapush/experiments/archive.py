@@ -53,8 +53,8 @@ def job_key(job_dir: Path | str) -> tuple[str, str]:
 def _result_files(root: Path, skip: list[Path]) -> list[Path]:
     """Every job's current result under `root`, and the result it superseded, less those under the dirs `skip`.
     A superseded result whose job has no current one (running again now) is left out: until the new result
-    exists, the archive keeps the old one as the job's current result, and counting it twice would double its
-    cost."""
+    exists, the archive keeps the old one as the job's current result, and a copy beside it would be named by no
+    result."""
     current = list(Path(root).glob(f"**/{RESULT}"))
     found = [*current, *(p.parent / SUPERSEDED for p in current if (p.parent / SUPERSEDED).is_file())]
     skip = [s.resolve() for s in skip]
