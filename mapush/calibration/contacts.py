@@ -56,12 +56,13 @@ class ContactLog:
     def __call__(self, sim) -> None:
         if not self.parts:
             model = sim.model
-            robot = [b for b in range(model.nbody) if model.body(b).name.startswith(ROBOT_PREFIX.format(0))]
-            self.parts = [FLOOR, *sorted({part_name(model.body(b).name) for b in robot})]
+            names = {b: part_name(model.body(b).name) for b in range(model.nbody)
+                     if model.body(b).name.startswith(ROBOT_PREFIX.format(0))}  # fmt: skip
+            self.parts = [FLOOR, *sorted(set(names.values()))]
             self.of_body = np.full(model.nbody, -1)
             self.of_body[0] = 0  # the world body holds the floor
-            for b in robot:
-                self.of_body[b] = self.parts.index(part_name(model.body(b).name))
+            for b, name in names.items():
+                self.of_body[b] = self.parts.index(name)
         self.rows.append(object_forces(sim, len(self.parts), self.of_body))
 
 
@@ -77,7 +78,7 @@ def object_forces(sim, parts: int, part_of_body: np.ndarray) -> np.ndarray:
         for k in range(data.ncon):
             contact = data.contact[k]
             b1, b2 = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
-            if obj not in (b1, b2) or b1 == b2:
+            if obj not in (b1, b2):
                 continue
             other = b1 if b2 == obj else b2
             if part_of_body[other] < 0:
