@@ -79,6 +79,7 @@ class Cell:
             "made_otherwise": self.otherwise,
             "note": self.note,
             "paper": list(self.paper) if self.paper else None,
+            "values": self.values,
             "sources": self.sources,
         }
 
@@ -182,13 +183,14 @@ def csv_text(table: Table) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     keys = ["mean", "std", "seeds", "unreached", "made_otherwise", "note"]  # every field of a cell but its lists
-    writer.writerow(["row", "column", *keys, "paper_mean", "paper_std", "sources"])
+    writer.writerow(["row", "column", *keys, "paper_mean", "paper_std", "values", "sources"])
     for labels, cells in table.rows:
         for column, cell in zip(table.columns, cells, strict=True):
             rec = cell.record()
             numbers = [significant(rec[key]) for key in keys]
             paper = rec["paper"] or [None, None]
-            writer.writerow([" / ".join(labels), column, *numbers, *paper, ";".join(rec["sources"])])
+            per_seed = ";".join(str(v) for v in rec["values"])  # in the order of `sources`
+            writer.writerow([" / ".join(labels), column, *numbers, *paper, per_seed, ";".join(rec["sources"])])
     return out.getvalue()
 
 

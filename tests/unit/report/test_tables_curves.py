@@ -314,6 +314,9 @@ def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
     # the CSV keeps what the Markdown shows beside the numbers: the mark, seeds that never reached, the note
     rows = list(csv.DictReader(io.StringIO(csv_text(table))))
     assert rows[0]["made_otherwise"] == "1" and rows[0]["mean"] == "70.0" and rows[0]["paper_mean"] == "77.5"
+    # each seed's value beside the job it came from, in the CSV and the sidecar alike
+    assert (rows[0]["values"], rows[0]["sources"]) == ("80.0;60.0", "a;b")
+    assert sidecar(table)["cells"][0]["values"] == [80.0, 60.0]
     odd = Table("t", "T", ["Task"], ["M"], [(["Cuboid"], [Cell([8.412345678], unreached=2, note="margin 0.5")])])
     assert {
         k: v for k, v in next(csv.DictReader(io.StringIO(csv_text(odd)))).items() if k in ("mean", "unreached", "note")
