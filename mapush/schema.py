@@ -68,6 +68,7 @@ RULES: dict[str, Rule] = {
     "level.planner.time_limit_s": _positive("number of seconds"),
     "level.decision_steps": _count(1),
     "level.follow_path": _flag(),
+    "level.action_gain": _positive("gain"),
     "level.events.push.params.interval_s": _positive("number of seconds"),
     "level.events.push.params.velocity_mps": _at_least(0.0, " m/s"),
     "level.eval_events.push.velocity_mps": _at_least(0.0, " m/s"),
@@ -96,6 +97,7 @@ RULES: dict[str, Rule] = {
     "algo.algorithm.gamma": _fraction(low_open=True),
     "algo.algorithm.lam": _fraction(),
     "algo.algorithm.entropy_coef": _at_least(0.0),
+    "algo.actor.distribution_cfg.std_range": _positive("std"),  # each of [low, high]
     "algo.algorithm.value_loss_coef": _at_least(0.0),
     "algo.algorithm.max_grad_norm": _positive("gradient norm"),
     "algo.algorithm.desired_kl": _positive("KL divergence"),
