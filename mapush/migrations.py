@@ -43,10 +43,7 @@ UNSET_LATER_KEYS = {
 out of a stage's identity (and so does a parent it leaves empty), so the stages trained before it existed keep
 theirs; set otherwise, it makes another stage (`mapush.experiments.stages.identity`)."""
 
-ABSENT_MEANT = {
-    "level.path.plan_in_training": False,
-    "algo.actor.distribution_cfg.std_range": [1.0e-6, 1.0e6],  # rsl-rl's own: the noise unbounded, as before 12-02
-}
+ABSENT_MEANT = {"level.path.plan_in_training": False}
 """Settings whose default changed after they were added: a run saved before one existed ran as this value."""
 
 
