@@ -97,10 +97,10 @@ RULES: dict[str, Rule] = {
     "algo.algorithm.gamma": _fraction(low_open=True),
     "algo.algorithm.lam": _fraction(),
     "algo.algorithm.entropy_coef": _at_least(0.0),
-    "algo.actor.distribution_cfg.std_range": _positive("std"),  # each of [low, high]
     "algo.algorithm.value_loss_coef": _at_least(0.0),
     "algo.algorithm.max_grad_norm": _positive("gradient norm"),
     "algo.algorithm.desired_kl": _positive("KL divergence"),
+    "algo.actor.distribution_cfg.std_range": _positive("std"),  # each of [low, high]
     "eval.episodes": _count(1),
     "eval.seeds": _count(0),
     "log.video_interval": (int, lambda v: v >= 0, "an integer >= 0 (iterations; 0 = no training videos)"),

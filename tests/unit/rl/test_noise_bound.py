@@ -17,9 +17,8 @@ def trained_std(make_env, tmp_path, *overrides: str) -> float:
     tmp_path.mkdir()
     runner = MapushRunner(AgentRowsVecEnv(env), train_cfg_for(env.cfg, env.num_agents, 3), log_dir=str(tmp_path))
     learn(runner, 3, tmp_path / "train.log")
-    distribution = runner.alg.actor.distribution
-    distribution.update(runner.alg.actor.mlp(runner.alg.actor.get_latent(runner.env.get_observations())))
-    return float(distribution.std.detach().max())
+    runner.alg.actor(runner.env.get_observations(), stochastic_output=True)  # sets the distribution's std
+    return float(runner.alg.actor.distribution.std.detach().max())
 
 
 def test_an_entropy_bonus_cannot_push_the_noise_past_a_std_range(make_env, tmp_path):
