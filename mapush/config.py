@@ -39,8 +39,9 @@ def physx_average(coefficients, other: float) -> list[float] | float:
     return [round((float(mu) + float(other)) / 2, 9) for mu in coefficients]
 
 
-if not OmegaConf.has_resolver("physx_average"):
-    OmegaConf.register_new_resolver("physx_average", physx_average)
+for _name, _resolver in (("physx_average", physx_average), ("reciprocal", lambda gain: 1.0 / float(gain))):
+    if not OmegaConf.has_resolver(_name):  # reciprocal: 1 / level.action_gain, where a mid-level command saturates
+        OmegaConf.register_new_resolver(_name, _resolver)
 
 GROUPS = ("task", "level", "lowlevel", "reward", "algo", "critic", "debug")
 

@@ -1,13 +1,19 @@
-"""`algo.actor.distribution_cfg.std_range` bounds the mid level's exploration noise (a probe's setting, 2026-12-02):
-beyond the raw output where a command saturates (1 / level.action_gain) noise changes nothing the env does, and
-the entropy bonus alone grows it there."""
+"""The mid level's exploration noise stops where its commands saturate: beyond `1 / level.action_gain` a raw output
+changes nothing the env does, and the entropy bonus alone would grow the noise there."""
 
 from __future__ import annotations
+
+import pytest
+from conftest import composed
 
 from mapush.rl.runner import MapushRunner, learn, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
 
-BOUND = "+algo.actor.distribution_cfg.std_range=[1.0e-6,1.0]"
+
+@pytest.mark.parametrize("gain", [1.0, 0.5])
+def test_the_noise_bound_is_the_raw_output_where_a_command_saturates(gain):
+    cfg = composed(f"level.action_gain={gain}")
+    assert cfg["algo"]["actor"]["distribution_cfg"]["std_range"][1] == pytest.approx(1.0 / gain)
 
 
 def trained_std(make_env, tmp_path, *overrides: str) -> float:
@@ -21,7 +27,7 @@ def trained_std(make_env, tmp_path, *overrides: str) -> float:
     return float(runner.alg.actor.distribution.std.detach().max())
 
 
-def test_an_entropy_bonus_cannot_push_the_noise_past_a_std_range(make_env, tmp_path):
-    assert trained_std(make_env, tmp_path / "bounded", BOUND) <= 1.0 + 1e-6
-    # the same training without a range (the default, rsl-rl's own) grows it past 1: the check above can fail
-    assert trained_std(make_env, tmp_path / "free") > 1.0
+def test_an_entropy_bonus_cannot_push_the_noise_past_the_bound(make_env, tmp_path):
+    assert trained_std(make_env, tmp_path / "bounded") <= 1.0 + 1e-6
+    # the same training with rsl-rl's own range grows it past 1: the check above can fail
+    assert trained_std(make_env, tmp_path / "free", "algo.actor.distribution_cfg.std_range=[1.0e-6,1.0e6]") > 1.0
