@@ -545,3 +545,17 @@ def test_a_method_and_a_task_of_yours_get_their_column_and_rows_without_paper_nu
     assert found["baselines below Ours"].holds is True and "Mine" not in str(found["baselines below Ours"])
     assert str(found["methods of yours, against Ours' 80.0 %"]).endswith(": Mine 90.0 %")
     assert found["methods of yours, against Ours' 80.0 %"].holds is None
+
+
+def test_a_side_variant_lists_missing_only_the_cells_of_the_methods_and_objects_it_ran():
+    from mapush.report.main_table import main_table
+
+    def job(variant, task):
+        ev = {"main": {"success_rate": 0.0, "completion_time": 1.0, "timeout_s": 160.0}}
+        return JobResult(method="hl_ft", task=task, seed=0, evals=ev, table="main", variant=variant, job_dir=task)
+
+    side = main_table([job("long", "tblock"), job("long", "cuboid"), job("quick", "cuboid")], "long")
+    assert side.missing == []  # H+L FT on both objects it ran; the other 50-odd cells were never its to fill
+    quick = main_table([job("quick", "cuboid")], "quick").missing
+    assert "sa / cuboid / success_rate: no finished job" in quick
+    assert "hl_ft / tblock / success_rate: no finished job" in quick and len(quick) == 58
