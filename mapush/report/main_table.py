@@ -11,7 +11,7 @@ from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import PAPER, collect, matching, searchpaths
-from mapush.report.formats import OVER_SEEDS, Finding, Table
+from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import team_needed
 
 EXTRA_COLUMNS = {
@@ -75,8 +75,9 @@ def main_table(results: list[JobResult], variant: str) -> Table:
         paper["task_labels"][task]: {paper["labels"][m]: matching(mine, method=m, task=task) for m in methods}
         for task in paper["tasks"]
     }
+    longer = [r for r in matching(results, table="main") if r.variant != variant]  # a budget that trained on
     for task in paper["tasks"]:
-        findings += _main_findings(mine, paper, task)
+        findings += _main_findings(mine, paper, task, longer)
     labelled = {f"{m} / {task}": r for task, lines in panels.items() for m, r in lines.items()}
     findings += curve_findings.budget_findings(labelled, curve_findings.drawn_stages(mine))
     return Table(
@@ -113,14 +114,15 @@ def success_time(success_rate: float, completion_time: float) -> float | None:
     return (completion_time - (1.0 - success_rate)) / success_rate
 
 
-def _main_findings(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
-    """What holds on one object: Ours against the paper, the baselines, path following and the legged robots."""
+def _main_findings(mine: list[JobResult], paper: dict, task: str, longer: list[JobResult] = ()) -> list[Finding]:
+    """What holds on one object: Ours against the paper, the baselines, path following and the legged robots;
+    `longer`: the main table's jobs of other budgets, read where a learner stayed below the pusher."""
     sr = {m: collect(mine, "success_rate", 100.0, method=m, task=task, eval="main").values for m in paper["methods"]}
     if not sr["ours"]:
         return []
     mean = float(np.mean(sr["ours"]))
     lines = _against_the_paper(mine, paper, task, mean) if task in paper["success_rate"] else []  # not a task of yours
-    lines += _baselines(mine, paper, task, sr, mean) + _learned_against_scripted(mine, paper, task, sr)
+    lines += _baselines(mine, paper, task, sr, mean) + _learned_against_scripted(mine, paper, task, sr, longer)
     lines += _ours_otherwise(mine, paper, task, mean) + _legged_baseline(mine, paper, task)
     return lines + _exceptions_finding(mine, paper, task)
 
@@ -153,9 +155,11 @@ def _baselines(mine: list[JobResult], paper: dict, task: str, sr: dict, mean: fl
     return lines
 
 
-def _learned_against_scripted(mine: list[JobResult], paper: dict, task: str, sr: dict) -> list[Finding]:
+def _learned_against_scripted(
+    mine: list[JobResult], paper: dict, task: str, sr: dict, longer: list[JobResult]
+) -> list[Finding]:
     """H+L and H+L FT against the hand-written pusher in their action space, with the env-steps a learner below it
-    would need if its curve went on as it ended."""
+    would need if its curve went on as it ended, and what it reached where a longer budget trained it on."""
     scripted = collect(mine, "success_rate", 100.0, method="hl", task=task, eval="path_only").values
     lines = []
     for method in ("hl", "hl_ft"):
@@ -171,6 +175,10 @@ def _learned_against_scripted(mine: list[JobResult], paper: dict, task: str, sr:
         more, needed = _steps_to(matching(mine, method=method, task=task), bar) if learned < bar else ("", None)
         if more:
             text, numbers["env_steps_to_pusher"] = text + more, needed
+        if learned < bar:
+            on, reached = _trained_on(matching(mine, method=method, task=task),
+                                      matching(longer, method=method, task=task), bar)  # fmt: skip
+            text, numbers = text + on, {**numbers, **reached}
         lines.append(Finding(text, learned >= bar, numbers))
     return lines
 
@@ -239,6 +247,32 @@ def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | N
         f"; its curve still rises: at the rate of its last {100 * tail:.0f} % it would reach that after about "
         f"{needed / 1e6:.0f}M env-steps (its budget: {budget})"
     ), needed
+
+
+def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: float) -> tuple[str, dict]:
+    """Where the jobs of a longer budget (`longer`) trained the learner of `results` past their budget: the env-steps
+    at which their mean curve first reached `rate_pct` and where it ended, as the end of a finding line and its
+    numbers; nothing when no longer curve is there."""
+    ends = [c["points"][-1]["env_steps"] for c in (r.curve for r in results) if c and c["points"]]
+    per_seed = curve_findings.seed_curves(longer)
+    if not (ends and per_seed):
+        return "", {}
+    x, rates, _ = curve_findings.mean_curve(per_seed)
+    if x[-1] <= max(ends):
+        return "", {}
+    variants = ", ".join(sorted({r.variant for r in longer if r.curve}))
+    hit = next(
+        (float(e) for e, v in zip(x, rates, strict=True) if round(100 * v, 1) >= round(rate_pct, 1)), None
+    )  # as printed
+    end = f"{100 * rates[-1]:.1f} % at its end"
+    reached = f"first reached that after {hit / 1e6:.1f}M env-steps, {end}" if hit else f"never reached that: {end}"
+    seeds = counted(len(per_seed), "seed")
+    text = f"; trained on to {x[-1] / 1e6:.1f}M env-steps (budget {variants}, {seeds}) it {reached}"
+    return text, {
+        "env_steps_longer": float(x[-1]),
+        "env_steps_to_pusher_longer": hit,
+        "sr_longer": 100 * float(rates[-1]),
+    }
 
 
 def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:

@@ -559,3 +559,37 @@ def test_a_side_variant_lists_missing_only_the_cells_of_the_methods_and_objects_
     quick = main_table([job("quick", "cuboid")], "quick").missing
     assert "sa / cuboid / success_rate: no finished job" in quick
     assert "hl_ft / tblock / success_rate: no finished job" in quick and len(quick) == 58
+
+
+def test_a_learner_below_the_pusher_says_what_a_longer_budget_trained_on_reached():
+    from mapush.report.main_table import main_table
+
+    def job(method, task, variant, rates=()):
+        points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": r} for k, r in enumerate(rates)]
+        ev = {"main": {"success_rate": rates[-1] if rates else 0.8, "completion_time": 0.9, "timeout_s": 160.0}}
+        if method == "hl":
+            ev["path_only"] = {"success_rate": 0.48, "completion_time": 0.8, "timeout_s": 160.0}
+        curve = {"rule": RULE, "points": points} if rates else None
+        return JobResult(method=method, task=task, seed=0, evals=ev, curve=curve, table="main", variant=variant,
+                         job_dir=f"{variant}/{method}/{task}")  # fmt: skip
+
+    quick = [job("ours", t, "quick") for t in ("cuboid", "tblock")]
+    quick += [job("hl", t, "quick", [0.0] * 5) for t in ("cuboid", "tblock")]
+    quick += [job("hl_ft", t, "quick", [0.0] * 5) for t in ("cuboid", "tblock")]
+    longer = [job("hl_ft", "cuboid", "long", [0.0] * 5 + [0.2, 0.4, 0.48, 0.7, 0.8]),  # 0.48 reaches 48 as printed
+              job("hl_ft", "tblock", "long", [0.0] * 10)]  # fmt: skip
+    found = {f.text.split(":")[0]: f for f in main_table([*quick, *longer], "quick").findings
+             if "H+L FT" in f.text and "hand-written pusher" in f.text}  # fmt: skip
+    cuboid, tblock = found["Cuboid"], found["T-shape"]
+    assert cuboid.text.endswith(
+        "; trained on to 10.0M env-steps (budget long, 1 seed) it first reached that after 8.0M env-steps, 80.0 % at "
+        "its end"
+    )
+    assert cuboid.holds is False and cuboid.numbers["env_steps_to_pusher_longer"] == 8_000_000
+    assert tblock.text.endswith(
+        "; trained on to 10.0M env-steps (budget long, 1 seed) it never reached that: 0.0 % at its end"
+    )
+    assert tblock.numbers["env_steps_to_pusher_longer"] is None
+    hl = [f for f in main_table([*quick, *longer], "quick").findings if f.text.startswith("Cuboid: H+L 0.0")]
+    assert "trained on" not in hl[0].text  # no longer budget trained H+L
+    assert "trained on" not in str(main_table(quick, "quick").findings)  # nor any without the long jobs
