@@ -261,11 +261,15 @@ def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: flo
     if x[-1] <= max(ends):
         return "", {}
     variants = ", ".join(sorted({r.variant for r in longer if r.curve}))
-    hit = next(
-        (float(e) for e, v in zip(x, rates, strict=True) if round(100 * v, 1) >= round(rate_pct, 1)), None
-    )  # as printed
+    above = [k for k, v in enumerate(rates) if round(100 * v, 1) >= round(rate_pct, 1)]  # compared as printed
+    hit = float(x[above[0]]) if above else None
     end = f"{100 * rates[-1]:.1f} % at its end"
-    reached = f"first reached that after {hit / 1e6:.1f}M env-steps, {end}" if hit else f"never reached that: {end}"
+    reached = f"never reached that: {end}"
+    if above:  # a checkpoint reached it; the curve crossed it since the one before
+        before = (
+            f"; the one before: {100 * rates[above[0] - 1]:.1f} % at {x[above[0] - 1] / 1e6:.1f}M" if above[0] else ""
+        )
+        reached = f"first reached that at the checkpoint of {hit / 1e6:.1f}M env-steps ({end}{before})"
     seeds = counted(len(per_seed), "seed")
     text = f"; trained on to {x[-1] / 1e6:.1f}M env-steps (budget {variants}, {seeds}) it {reached}"
     return text, {

@@ -582,8 +582,8 @@ def test_a_learner_below_the_pusher_says_what_a_longer_budget_trained_on_reached
              if "H+L FT" in f.text and "hand-written pusher" in f.text}  # fmt: skip
     cuboid, tblock = found["Cuboid"], found["T-shape"]
     assert cuboid.text.endswith(
-        "; trained on to 10.0M env-steps (budget long, 1 seed) it first reached that after 8.0M env-steps, 80.0 % at "
-        "its end"
+        "; trained on to 10.0M env-steps (budget long, 1 seed) it first reached that at the checkpoint of 8.0M "
+        "env-steps (80.0 % at its end; the one before: 40.0 % at 7.0M)"
     )
     assert cuboid.holds is False and cuboid.numbers["env_steps_to_pusher_longer"] == 8_000_000
     assert tblock.text.endswith(
