@@ -319,7 +319,7 @@ def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
     """The end of a finding line: which exceptions ended Ours' episodes of the evaluation, where its records name
     them."""
     shares, seeds = _exception_shares(results, "ours", task, eval_name)
-    return f"; episodes ended by {_named(shares)} (mean over {seeds} seeds)" if shares else ""
+    return f"; episodes ended by {_named(shares)} (mean over {counted(seeds, 'seed')})" if shares else ""
 
 
 def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:

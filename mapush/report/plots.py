@@ -10,7 +10,7 @@ import numpy as np
 
 from mapush.experiments.results import JobResult
 from mapush.report.curve_findings import curve_made_otherwise, mean_curve, seed_curves
-from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Table
+from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Table, counted
 
 
 def _pyplot():
@@ -49,7 +49,9 @@ def curves_plot(
     for ax, (panel, lines) in zip(axes[0], drawn.items(), strict=True):
         for label, per_seed in lines.items():
             x, mean, std = mean_curve(per_seed)
-            line_label = f"{label} ({len(per_seed)} seeds)" + (f" {OTHERWISE}" if (panel, label) in otherwise else "")
+            line_label = f"{label} ({counted(len(per_seed), 'seed')})" + (
+                f" {OTHERWISE}" if (panel, label) in otherwise else ""
+            )
             ax.plot(x / 1e6, 100 * mean, marker="o", ms=3, color=color[label], label=line_label)
             ax.fill_between(x / 1e6, 100 * (mean - std), 100 * (mean + std), color=color[label], alpha=0.2)
         ax.set_title(panel)

@@ -516,8 +516,8 @@ def test_curves_from_jobs_made_otherwise_are_marked_in_the_legend(tmp_path, monk
     panels = {"Cuboid": {"SA": [job("a", high_only)], "Ours": [job("b", None)]}}
     curves_plot(panels, tmp_path / "main.png", "Main")
     curves_plot(panels, tmp_path / "mid.png", "Mid", stage="mid")
-    assert drawn["main.png"] == [f"Main\n{OTHERWISE_LEGEND}", f"SA (1 seeds) {OTHERWISE}", "Ours (1 seeds)"]
-    assert drawn["mid.png"] == ["Mid", "SA (1 seeds)", "Ours (1 seeds)"]  # its mid level did not change
+    assert drawn["main.png"] == [f"Main\n{OTHERWISE_LEGEND}", f"SA (1 seed) {OTHERWISE}", "Ours (1 seed)"]
+    assert drawn["mid.png"] == ["Mid", "SA (1 seed)", "Ours (1 seed)"]  # its mid level did not change
 
 
 def test_a_method_and_a_task_of_yours_get_their_column_and_rows_without_paper_numbers():
