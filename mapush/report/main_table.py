@@ -172,12 +172,12 @@ def _learned_against_scripted(
             f"pusher's {bar:.1f} % in its action space (H+L, path only)"
         )
         numbers = {"learned_sr": learned, "pusher_sr": bar}
-        more, needed = _steps_to(matching(mine, method=method, task=task), bar) if learned < bar else ("", None)
-        if more:
-            text, numbers["env_steps_to_pusher"] = text + more, needed
         if learned < bar:
-            on, reached = _trained_on(matching(mine, method=method, task=task),
-                                      matching(longer, method=method, task=task), bar)  # fmt: skip
+            own = matching(mine, method=method, task=task)
+            more, needed = _steps_to(own, bar)
+            if more:
+                text, numbers["env_steps_to_pusher"] = text + more, needed
+            on, reached = _trained_on(own, matching(longer, method=method, task=task), bar)
             text, numbers = text + on, {**numbers, **reached}
         lines.append(Finding(text, learned >= bar, numbers))
     return lines
