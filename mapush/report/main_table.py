@@ -11,7 +11,7 @@ from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import PAPER, collect, matching, searchpaths
-from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
+from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import team_needed
 
 EXTRA_COLUMNS = {
@@ -252,7 +252,7 @@ def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | N
 def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: float) -> tuple[str, dict]:
     """Where the jobs of a longer budget (`longer`) trained the learner of `results` past their budget: the env-steps
     at which their mean curve first reached `rate_pct` and where it ended, as the end of a finding line and its
-    numbers; nothing when no longer curve is there."""
+    numbers (marked when those jobs were made by an earlier recipe); nothing when no longer curve is there."""
     ends = [c["points"][-1]["env_steps"] for c in (r.curve for r in results) if c and c["points"]]
     per_seed = curve_findings.seed_curves(longer)
     if not (ends and per_seed):
@@ -271,6 +271,8 @@ def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: flo
         )
         reached = f"first reached that at the checkpoint of {hit / 1e6:.1f}M env-steps ({end}{before})"
     seeds = counted(len(per_seed), "seed")
+    if any(curve_findings.curve_made_otherwise(r) for r in longer):  # its cells are marked so in their own table
+        seeds += f", {OTHERWISE} an earlier recipe"
     text = f"; trained on to {x[-1] / 1e6:.1f}M env-steps (budget {variants}, {seeds}) it {reached}"
     return text, {
         "env_steps_longer": float(x[-1]),

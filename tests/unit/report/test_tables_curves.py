@@ -593,3 +593,6 @@ def test_a_learner_below_the_pusher_says_what_a_longer_budget_trained_on_reached
     hl = [f for f in main_table([*quick, *longer], "quick").findings if f.text.startswith("Cuboid: H+L 0.0")]
     assert "trained on" not in hl[0].text  # no longer budget trained H+L
     assert "trained on" not in str(main_table(quick, "quick").findings)  # nor any without the long jobs
+    longer[1].made_otherwise = Change("stages", "its stages changed", ("high",))  # the T-block's: an earlier recipe
+    marked = [f.text for f in main_table([*quick, *longer], "quick").findings if f.text.startswith("T-shape: H+L FT")]
+    assert "(budget long, 1 seed, \u2020 an earlier recipe) it never reached that" in marked[0]
