@@ -39,6 +39,18 @@ def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cel
     )
 
 
+def exception_cell(results: list[JobResult], kind: str, scale: float, **match) -> Cell:
+    """The cell of the share of an evaluation's episodes that the exception `kind` ended (e.g. `robot_tilt`: a
+    robot fell), from the results whose records name their exceptions (a kind a record lacks ended none there)."""
+    eval_name = match.pop("eval")
+
+    def share(r: JobResult) -> float | None:
+        exceptions = r.evals.get(eval_name, {}).get("exceptions")
+        return None if exceptions is None else exceptions.get(kind, 0.0)
+
+    return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), scale)
+
+
 def final_cell(results: list[JobResult], stage: str, scale: float, **match) -> Cell:
     """The cell of the last point of each matching result's own curve of `stage` (`stage_curves`: e.g. the mid
     level alone under a high level, at the end of its budget), for its success rate."""

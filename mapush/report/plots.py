@@ -67,12 +67,18 @@ def curves_plot(
 
 
 def scale_plot(table: Table, path: Path) -> None:
-    """S.R. (the hierarchy's and the mid level's) and C.T. against the number of robots, with std error bars."""
+    """S.R. (the hierarchy's and the mid level's), the hierarchy's falls and its C.T. against the number of robots,
+    with std error bars."""
     plt = _pyplot()
 
     fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))
     counts = [int(labels[0]) for labels, _ in table.rows]
-    series = ((axes[0], 0, "hierarchy"), (axes[0], 2, "mid level"), (axes[1], 1, "hierarchy"))
+    series = (
+        (axes[0], 0, "hierarchy"),
+        (axes[0], 2, "mid level"),
+        (axes[0], 3, "falls (hierarchy)"),
+        (axes[1], 1, "hierarchy"),
+    )
     for ax, k, name in series:
         pts = [
             (n, cells[k].mean, cells[k].std)
@@ -82,7 +88,7 @@ def scale_plot(table: Table, path: Path) -> None:
         if pts:
             n, m, s = zip(*pts, strict=True)
             ax.errorbar(n, m, yerr=s, marker="o", capsize=3, label=name)
-    for ax, label in ((axes[0], "S.R. (%)"), (axes[1], "C.T. (normalized)")):
+    for ax, label in ((axes[0], "S.R., falls (% of episodes)"), (axes[1], "C.T. (normalized)")):
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
         ax.set_xlabel("robots")

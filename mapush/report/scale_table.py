@@ -8,7 +8,7 @@ import numpy as np
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import PAPER, collect, final_cell, matching
+from mapush.report.cells import PAPER, collect, exception_cell, final_cell, matching
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 
 SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
@@ -26,6 +26,7 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
             collect(mine, "success_rate", 100.0, num_agents=n, eval="main"),
             collect(mine, "completion_time", 1.0, num_agents=n, eval="main"),
             final_cell(mine, "mid", 100.0, num_agents=n),
+            exception_cell(mine, "robot_tilt", 100.0, num_agents=n, eval="main"),
         ]
         cells[1].digits = 2
         if not cells[0].values:
@@ -50,12 +51,13 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         f"scale_{variant}",
         f"Scalability, cylinder ({variant})",
         ["Robots"],
-        ["S.R. (%) \u2191", "C.T. \u2193", "Mid level S.R. (%) \u2191"],
+        ["S.R. (%) \u2191", "C.T. \u2193", "Mid level S.R. (%) \u2191", "Falls (%) \u2193"],
         rows,
         missing,
         f"Whole hierarchy; C.T. normalized by the timeout; {OVER_SEEDS}. Mid level: the "
         "same jobs' mid level alone on its 20 s pushes, at the end of its budget (the last point of its own "
-        "learning curve). The paper gives a figure only.",
+        "learning curve). Falls: the share of the whole hierarchy's episodes that a robot's fall ended (`robot_tilt`; "
+        "one robot down ends the episode). The paper gives a figure only.",
         findings,
         {"Cylinder": lines},
     )

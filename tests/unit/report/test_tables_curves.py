@@ -435,6 +435,27 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
     assert "\u2020" not in findings[paper + "two robots improve S.R. substantially on one"]
 
 
+def test_the_scale_table_shows_the_share_of_episodes_a_fall_ended_per_robot_count():
+    from mapush.report.scale_table import scale_table
+
+    def job(n: int, seed: int, exceptions: dict | None) -> JobResult:
+        main = {"success_rate": 0.5, "completion_time": 0.5} | ({} if exceptions is None else {"exceptions": exceptions})
+        return JobResult(job_dir=f"agents={n},seed={seed}", table="scale", variant="quick", num_agents=n, seed=seed,
+                         evals={"main": main})  # fmt: skip
+
+    results = [
+        job(2, 0, {"robot_tilt": 0.2, "robot_collision": 0.1}),
+        job(2, 1, {"robot_tilt": 0.4}),
+        job(3, 0, {"robot_collision": 0.3}),  # no fall among its exceptions: none ended by one
+        job(4, 0, None),  # a record that names no exceptions: no figure
+    ]
+    table = scale_table(results, "quick")
+    assert table.columns[-1] == "Falls (%) \u2193"
+    falls = {labels[0]: cells[-1] for labels, cells in table.rows}
+    assert (falls["2"].mean, falls["2"].std) == pytest.approx((30.0, 10.0))
+    assert falls["3"].values == [0.0] and falls["4"].values == [] and falls["4"].mean is None
+
+
 def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robots_that_push(tmp_path):
     from mapush.report.physics import object_drag, one_robot_capacity
     from mapush.report.plots import team_plot
