@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from mapush.config import group_file
@@ -81,3 +82,21 @@ def reach_cell(results: list[JobResult]) -> Cell:
     """Env-steps (M) to the curve's `reach` success rate, over the seeds of `results`."""
     values, sources, unreached = curve_findings.reach_values(results)
     return Cell(values, sources, digits=2, unreached=unreached)
+
+
+def exception_shares(results: list[JobResult], eval_names: list[str]) -> tuple[dict[str, float], int]:
+    """Which exceptions ended the episodes of the evaluations `eval_names` of `results`: % of the episodes by kind,
+    largest first (mean over the records that name their exceptions, a kind one record lacks counting 0 there;
+    kinds that ended none left out), and how many records that is."""
+    shares = [r.evals[name]["exceptions"] for r in results for name in eval_names
+              if "exceptions" in r.evals.get(name, {})]  # fmt: skip
+    if not shares:
+        return {}, 0
+    kinds = sorted({kind for s in shares for kind in s})
+    mean = {kind: 100.0 * float(np.mean([s.get(kind, 0.0) for s in shares])) for kind in kinds}
+    return {kind: share for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0}, len(shares)
+
+
+def named_shares(shares: dict[str, float]) -> str:
+    """`exception_shares`' kinds as text: "robot_tilt 20 %, robot_collision 2 %"."""
+    return ", ".join(f"{kind} {share:.0f} %" for kind, share in shares.items())

@@ -10,7 +10,7 @@ from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import PAPER, collect, matching, searchpaths
+from mapush.report.cells import PAPER, collect, exception_shares, matching, named_shares, searchpaths
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import team_needed
 
@@ -300,28 +300,11 @@ def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Find
     return lines
 
 
-def _exception_shares(results: list[JobResult], method: str, task: str, eval_name: str) -> tuple[dict, int]:
-    """Which exceptions ended one method's episodes of an evaluation: % of the episodes by kind, largest first
-    (mean over the seeds whose records name exceptions, a kind one record lacks counting 0 there; kinds that ended
-    none left out), and how many seeds that is."""
-    shares = [r.evals[eval_name]["exceptions"] for r in matching(results, method=method, task=task)
-              if "exceptions" in r.evals.get(eval_name, {})]  # fmt: skip
-    if not shares:
-        return {}, 0
-    kinds = sorted({kind for s in shares for kind in s})
-    mean = {kind: 100.0 * float(np.mean([s.get(kind, 0.0) for s in shares])) for kind in kinds}
-    return {kind: share for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0}, len(shares)
-
-
-def _named(shares: dict) -> str:
-    return ", ".join(f"{kind} {share:.0f} %" for kind, share in shares.items())
-
-
 def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
     """The end of a finding line: which exceptions ended Ours' episodes of the evaluation, where its records name
     them."""
-    shares, seeds = _exception_shares(results, "ours", task, eval_name)
-    return f"; episodes ended by {_named(shares)} (mean over {counted(seeds, 'seed')})" if shares else ""
+    shares, seeds = exception_shares(matching(results, method="ours", task=task), [eval_name])
+    return f"; episodes ended by {named_shares(shares)} (mean over {counted(seeds, 'seed')})" if shares else ""
 
 
 def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
@@ -329,11 +312,11 @@ def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[F
     a low S.R. reads with its cause; a method whose cell is marked as made otherwise (\u2020) is marked so here."""
     parts, clean, numbers = [], [], {}
     for method in paper["methods"]:
-        shares, seeds = _exception_shares(mine, method, task, "main")
+        shares, seeds = exception_shares(matching(mine, method=method, task=task), ["main"])
         otherwise = collect(mine, "success_rate", 1.0, method=method, task=task, eval="main").otherwise
         label = paper["labels"][method] + (" \u2020" if otherwise else "")
         if shares:
-            parts.append(f"{label} {_named(shares)}")
+            parts.append(f"{label} {named_shares(shares)}")
             numbers.update({f"{label} {kind}": share for kind, share in shares.items()})
         elif seeds:
             clean.append(label)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import collect, matching
+from mapush.report.cells import collect, exception_shares, matching, named_shares
 from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import object_drag, one_robot_capacity
 
@@ -55,7 +55,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
             if not jobs:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
-    findings = _findings(rows, masses)
+    findings = _findings(rows, masses) + _exception_findings(lines, masses)
     findings += curve_findings.budget_findings(lines)
     return Table(
         f"team_{variant}",
@@ -99,4 +99,22 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
         if parts:
             found.append(Finding(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts),
                                  numbers=fewest))  # fmt: skip
+    return found
+
+
+def _exception_findings(lines: dict[str, list[JobResult]], masses: dict[str, float]) -> list[Finding]:
+    """Per object, what ended each robot count's episodes (falls, collisions, ...), over every mass and seed, so a
+    low S.R. reads with its cause (e.g. a crowd that collides at a mass one robot pushes)."""
+    by_task: dict[str, list] = {}
+    for label, jobs in lines.items():
+        task, _, robots = label.partition(" / ")
+        shares, records = exception_shares(jobs, list(masses))
+        if records:
+            by_task.setdefault(task, []).append((robots, shares))
+    found = []
+    for task, parts in by_task.items():
+        text = "; ".join(f"{robots}: {named_shares(shares) or 'none'}" for robots, shares in parts)
+        numbers = {f"{robots} {kind}": share for robots, shares in parts for kind, share in shares.items()}
+        found.append(Finding(f"{task}: episodes ended by an exception (mean over masses and seeds): {text}",
+                             numbers=numbers))  # fmt: skip
     return found

@@ -439,7 +439,8 @@ def test_the_scale_table_shows_the_share_of_episodes_a_fall_ended_per_robot_coun
     from mapush.report.scale_table import scale_table
 
     def job(n: int, seed: int, exceptions: dict | None) -> JobResult:
-        main = {"success_rate": 0.5, "completion_time": 0.5} | ({} if exceptions is None else {"exceptions": exceptions})
+        main = {"success_rate": 0.5, "completion_time": 0.5}
+        main |= {} if exceptions is None else {"exceptions": exceptions}
         return JobResult(job_dir=f"agents={n},seed={seed}", table="scale", variant="quick", num_agents=n, seed=seed,
                          evals={"main": main})  # fmt: skip
 
@@ -489,6 +490,33 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     assert "24 kg: 2 (margin " in str(found) and str(found).endswith("64 kg: none of 4")
     team_plot(table, tmp_path / "team.png")
     assert (tmp_path / "team.png").stat().st_size > 0
+
+
+def test_the_team_table_says_what_ended_each_robot_counts_episodes_over_its_masses_and_seeds():
+    from mapush.report.team_table import team_table
+
+    def evals(exceptions):  # the same exceptions at every mass but 64 kg, whose record names none
+        made = {f"m{m}": {"success_rate": 0.5, "exceptions": exceptions} for m in (2, 8, 24)}
+        return made | {"m64": {"success_rate": 0.0}}
+
+    made = {1: {"robot_tilt": 0.3}, 3: {"robot_collision": 0.6, "robot_tilt": 0.0}, 4: {"robot_tilt": 0.0}}
+    results = [
+        JobResult(job_dir=f"agents={n},seed=0", table="team", variant="quick", num_agents=n, seed=0, task="cuboid",
+                  evals=evals(exceptions))
+        for n, exceptions in made.items()
+    ] + [
+        JobResult(job_dir="agents=1,seed=1", table="team", variant="quick", num_agents=1, seed=1, task="cuboid",
+                  evals=evals({"robot_collision": 0.1}))
+    ]  # fmt: skip
+    found = next(f for f in team_table(results, "quick").findings if "ended by an exception" in str(f))
+    # 1 robot: falls 30 % in seed 0 and none in seed 1: 15 %; collisions 5 %; 2 robots have no job
+    assert str(found) == (
+        "cuboid: episodes ended by an exception (mean over masses and seeds): 1 robot: robot_tilt 15 %, "
+        "robot_collision 5 %; 3 robots: robot_collision 60 %; 4 robots: none"
+    )
+    assert found.holds is None and found.numbers == pytest.approx(
+        {"1 robot robot_tilt": 15.0, "1 robot robot_collision": 5.0, "3 robots robot_collision": 60.0}
+    )
 
 
 def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
