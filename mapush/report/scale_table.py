@@ -13,6 +13,8 @@ from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 
 SCALE_ROBOTS = list(group_file("experiment", "scale").sweep.agents)
 """The robot counts the scalability study plans (`mapush scale`): rows of its table, finished or not."""
+FALL = "robot_tilt"
+"""The exception a robot's fall ends an episode with (`exceptions` in `conf/level/`): the table's "Falls"."""
 
 
 def scale_table(results: list[JobResult], variant: str) -> Table:
@@ -26,7 +28,7 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
             collect(mine, "success_rate", 100.0, num_agents=n, eval="main"),
             collect(mine, "completion_time", 1.0, num_agents=n, eval="main"),
             final_cell(mine, "mid", 100.0, num_agents=n),
-            exception_cell(mine, "robot_tilt", 100.0, num_agents=n, eval="main"),
+            exception_cell(mine, FALL, 100.0, num_agents=n, eval="main"),
         ]
         cells[1].digits = 2
         if not cells[0].values:
@@ -56,7 +58,7 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
         missing,
         f"Whole hierarchy; C.T. normalized by the timeout; {OVER_SEEDS}. Mid level: the "
         "same jobs' mid level alone on its 20 s pushes, at the end of its budget (the last point of its own "
-        "learning curve). Falls: the share of the whole hierarchy's episodes that a robot's fall ended (`robot_tilt`; "
+        f"learning curve). Falls: the share of the whole hierarchy's episodes that a robot's fall ended (`{FALL}`; "
         "one robot down ends the episode). The paper gives a figure only.",
         findings,
         {"Cylinder": lines},
