@@ -245,9 +245,18 @@ def test_an_evaluation_of_a_stage_the_method_does_not_train_is_refused_before_tr
 
 # ---------------------------------------------------------------------------------------------------------------
 def _fixture_result(
-    root: Path, table: str, method: str, task: str, seed: int, evals: dict, agents: int = 2, mid: float | None = None
+    root: Path,
+    table: str,
+    method: str,
+    task: str,
+    seed: int,
+    evals: dict,
+    agents: int = 2,
+    mid: float | None = None,
+    falls: float | None = None,
 ) -> None:
-    """A finished job's result; `mid`: the success rate at the last point of its mid level's own curve."""
+    """A finished job's result; `mid`: the success rate at the last point of its mid level's own curve; `falls`: the
+    share of every evaluation's episodes a fall ended (None: the records name no exceptions)."""
     job = root / f"{table}_quick" / f"method={method},seed={seed},task={task},agents={agents}"
     job.mkdir(parents=True)
     result = {
@@ -259,6 +268,7 @@ def _fixture_result(
         "seed": seed,
         "evals": {
             name: {"success_rate": sr, "completion_time": ct, "completion_time_s": cts}
+            | ({} if falls is None else {"exceptions": {"robot_tilt": falls, "robot_collision": 0.0}})
             for name, (sr, ct, cts) in evals.items()
         },
     }
@@ -280,10 +290,10 @@ def fixture_tables(tmp_path):
     for seed, (sr20, s20, sr40, s40) in enumerate([(0.5, 15.0, 0.7, 22.0), (0.6, 14.0, 0.8, 20.0)]):
         evals = {"t20": (sr20, s20 / 20, s20), "t40": (sr40, s40 / 40, s40)}
         _fixture_result(runs, "ocb_ablation", "ours", "ocb_cuboid", seed, evals)
-    # scale: 1 and 3 robots; the 3-robot jobs with their mid levels' own curves
+    # scale: 1 and 3 robots; the 3-robot jobs with their mid levels' own curves and the falls that ended episodes
     _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.2, 0.9, 0.0)}, agents=1)
-    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0)}, agents=3, mid=0.7)
-    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0)}, agents=3, mid=0.74)
+    _fixture_result(runs, "scale", "ours", "cylinder", 0, {"main": (0.6, 0.5, 0.0)}, agents=3, mid=0.7, falls=0.3)
+    _fixture_result(runs, "scale", "ours", "cylinder", 1, {"main": (0.8, 0.4, 0.0)}, agents=3, mid=0.74, falls=0.5)
     return runs
 
 
@@ -293,7 +303,7 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out"
     assert "main_quick.{md,tex,csv,json}: 6/60 cells filled" in proc.stdout
-    assert "scale_quick.{md,tex,csv,json}: 5/15 cells filled" in proc.stdout  # 1, 2, 3, 4 and 6 robots x 3
+    assert "scale_quick.{md,tex,csv,json}: 6/20 cells filled" in proc.stdout  # 1, 2, 3, 4 and 6 robots x 4
 
     md = (out / "main_quick.md").read_text()
     # ours, cuboid: S.R. 80 % and 70 % -> 75.0 +- 5.0; C.T. 0.60 and 0.70 -> 0.65 +- 0.05; paper 77.5 +- 3.0, 0.66
@@ -335,15 +345,17 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
 
     scale = (out / "scale_quick.md").read_text()
     # 3 robots: hierarchy 60 and 80 % -> 70.0 +- 10.0, C.T. 0.45 +- 0.05; mid level 70 and 74 % -> 72.0 +- 2.0
-    assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 | 72.0 \u00b1 2.0 |" in scale
-    assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) | \u2014 |" in scale
+    # falls 30 and 50 % of the 3-robot episodes: 40.0 +- 10.0; the 1-robot record names no exceptions: no cell
+    assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 | 72.0 \u00b1 2.0 | 40.0 \u00b1 10.0 |" in scale
+    assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) | \u2014 | \u2014 |" in scale
     assert "- Best robot count of those finished (1, 3) here: 3 (70.0 \u00b1 10.0 % S.R.)" in scale
     assert (
         "- Mid level with 3 robots: 72.0 \u00b1 2.0 % S.R. over 2 seeds; the original's best stored cylinder mid "
         "level reached 72.3 %: below it, within the seeds' spread"
     ) in scale
     assert "- 2 robots: no finished job" in scale
-    assert "| 6 | \u2014 | \u2014 | \u2014 |" in scale and "- 6 robots: no finished job" in scale  # planned, not run
+    assert "| 6 | \u2014 | \u2014 | \u2014 | \u2014 |" in scale  # planned, not run
+    assert "- 6 robots: no finished job" in scale
     assert "- 1 robot / mid level: no curve of the mid level alone" in scale
     assert (out / "scale_quick.png").stat().st_size > 1000
 
