@@ -55,7 +55,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
             if not jobs:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
-    findings = _findings(rows, masses) + _exception_findings(lines, masses)
+    findings = _findings(rows, masses) + _exception_findings(mine, masses)
     findings += curve_findings.budget_findings(lines)
     return Table(
         f"team_{variant}",
@@ -102,19 +102,19 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
     return found
 
 
-def _exception_findings(lines: dict[str, list[JobResult]], masses: dict[str, float]) -> list[Finding]:
+def _exception_findings(mine: list[JobResult], masses: dict[str, float]) -> list[Finding]:
     """Per object, what ended each robot count's episodes (falls, collisions, ...), over every mass and seed, so a
     low S.R. reads with its cause (e.g. a crowd that collides at a mass one robot pushes)."""
-    by_task: dict[str, list] = {}
-    for label, jobs in lines.items():
-        task, _, robots = label.partition(" / ")
-        shares, records = exception_shares(jobs, list(masses))
-        if records:
-            by_task.setdefault(task, []).append((robots, shares))
     found = []
-    for task, parts in by_task.items():
-        text = "; ".join(f"{robots}: {named_shares(shares) or 'none'}" for robots, shares in parts)
-        numbers = {f"{robots} {kind}": share for robots, shares in parts for kind, share in shares.items()}
-        found.append(Finding(f"{task}: episodes ended by an exception (mean over masses and seeds): {text}",
-                             numbers=numbers))  # fmt: skip
+    for task in TEAM.sweep.task:
+        parts = []
+        for n in TEAM.sweep.agents:
+            shares, records = exception_shares(matching(mine, task=task, num_agents=n), list(masses))
+            if records:
+                parts.append((counted(n, "robot"), shares))
+        if parts:
+            text = "; ".join(f"{robots}: {named_shares(shares) or 'none'}" for robots, shares in parts)
+            numbers = {f"{robots} {kind}": share for robots, shares in parts for kind, share in shares.items()}
+            found.append(Finding(f"{task}: episodes ended by an exception (mean over masses and seeds): {text}",
+                                 numbers=numbers))  # fmt: skip
     return found
