@@ -23,6 +23,11 @@ def object_drag(task: str, overrides=(), mass: float | None = None) -> tuple[flo
     return mass * G * low, mass * G * high
 
 
+def object_mass(task: str, overrides=()) -> float:
+    """kg; the task's object's mass as composed (its `mass`, else its parts' own)."""
+    return _object(task, tuple(overrides))[0]
+
+
 @functools.cache  # the tables ask for each object's drag once per cell
 def _object(task: str, overrides: tuple[str, ...]) -> tuple[float, tuple[float, float]]:
     """The task's object as composed: its mass (kg) and its floor friction range."""

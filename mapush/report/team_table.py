@@ -5,12 +5,14 @@ at once; well below 1, fewer robots could."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import collect, exception_shares, matching, named_shares
 from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
-from mapush.report.physics import object_drag, one_robot_capacity
+from mapush.report.physics import object_drag, object_mass, one_robot_capacity
 
 TEAM = group_file("experiment", "team")
 
@@ -56,6 +58,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses) + _exception_findings(mine, masses)
+    findings += _one_mass_findings(results, variant, rows, lines, masses)
     findings += curve_findings.budget_findings(lines)
     return Table(
         f"team_{variant}",
@@ -118,3 +121,56 @@ def _exception_findings(mine: list[JobResult], masses: dict[str, float]) -> list
             found.append(Finding(f"{task}: episodes ended by an exception (mean over masses and seeds): {text}",
                                  numbers=numbers))  # fmt: skip
     return found
+
+
+def _one_mass_findings(
+    results: list[JobResult], variant: str, rows: list, lines: dict[str, list[JobResult]], masses: dict[str, float]
+) -> list[Finding]:
+    """Per object and robot count, the study's design checked: does a policy trained over the mass range learn as
+    well as a mid level of the same object and robots trained at the object's own mass (another table's jobs: the
+    main table's, the scalability study's)? The one-mass policy's own curve at the env-steps nearest this study's
+    budget, against this study's cells at the evaluated masses either side of that mass. Where the range costs more
+    than the seeds' spread, a cell measures how the range trains as well as what a team needs."""
+    found = []
+    for (task, n), cells in rows:
+        own, evaluated = object_mass(task), list(masses.values())
+        below = max((m for m in evaluated if m <= own), default=None)
+        above = min((m for m in evaluated if m >= own), default=None)
+        near = [k for k, mass in enumerate(evaluated) if mass in (below, above) and cells[k].values]
+        jobs = lines[f"{task} / {counted(int(n), 'robot')}"]
+        budgets = [r.curve["points"][-1]["env_steps"] for r in jobs if r.curve and r.curve["points"]]
+        references = _one_mass_references(results, variant, task, int(n))
+        if not near or not budgets or not references:
+            continue
+        budget = max(budgets)
+        points = [min(r.stage_curves["mid"]["points"], key=lambda p: abs(p["env_steps"] - budget)) for r in references]
+        rates = [100 * p["success_rate"] for p in points]
+        mean, std = float(np.mean(rates)), float(np.std(rates))
+        best = max((cells[k] for k in near), key=lambda cell: cell.mean)
+        gap, spread = mean - best.mean, std + best.std
+        at = ", ".join(f"{cells[k].mean:.1f} % at {evaluated[k]:g} kg" for k in near)
+        by = ", ".join(sorted({f"{r.table} {r.method_label or r.method}" for r in references}))
+        steps = sorted({p["env_steps"] / 1e6 for p in points})
+        verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
+        text = (
+            f"{task} / {counted(int(n), 'robot')}: trained over {_range_text()}, {at} after {budget / 1e6:.1f}M "
+            f"env-steps; trained at its own {own:g} kg ({by}, {counted(len(references), 'seed')}), "
+            f"{mean:.1f} \u00b1 {std:.1f} % there at {'/'.join(f'{x:.1f}' for x in steps)}M: "
+            f"the range {'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points against the better of them, {verdict}"
+        )
+        found.append(Finding(text, gap <= spread, {"range_points": best.mean, "one_mass_points": mean,
+                                                   "gap_points": gap, "spread_points": spread}))  # fmt: skip
+    return found
+
+
+def _one_mass_references(results: list[JobResult], variant: str, task: str, robots: int) -> list[JobResult]:
+    """Other tables' jobs of `task` with `robots` whose mid level trained at the object's own mass and carries its
+    own curve, made as their experiment plans now; one per mid-level run (a job another sweep took counts once)."""
+    picked = {}
+    for r in matching(results, variant=variant, task=task, num_agents=robots):
+        if r.table == "team" or "mid" not in (r.stage_curves or {}) or curve_findings.curve_made_otherwise(r, "mid"):
+            continue
+        if any(str(o).startswith("task.object.mass") for o in r.overrides):
+            continue
+        picked.setdefault(r.stages.get("mid") or r.job_dir, r)
+    return list(picked.values())

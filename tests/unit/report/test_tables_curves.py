@@ -519,6 +519,45 @@ def test_the_team_table_says_what_ended_each_robot_counts_episodes_over_its_mass
     )
 
 
+def test_the_team_table_weighs_a_policy_trained_over_the_masses_against_one_trained_at_the_objects_own():
+    from mapush.report.team_table import team_table
+
+    def curve(*rates):  # a curve evaluated every 2M env-steps
+        points = [{"env_steps": 2e6 * (k + 1), "success_rate": r} for k, r in enumerate(rates)]
+        return {"points": points, "rule": {"tail": 0.2, "max_gain": 0.03}}
+
+    team = [  # one robot over 2-64 kg: 20 and 10 % at 2 and 8 kg (the cuboid's own 4 kg lies between), curve to 6M
+        JobResult(job_dir=f"team,seed={seed}", table="team", variant="quick", num_agents=1, seed=seed, task="cuboid",
+                  evals={f"m{m}": {"success_rate": sr} for m, sr in ((2, 0.2), (8, 0.1), (24, 0.0), (64, 0.0))},
+                  curve=curve(0.1, 0.2, 0.2))
+        for seed in (0, 1)
+    ]  # fmt: skip
+
+    def one_mass(job_dir, run, rates, table="main", overrides=()):
+        return JobResult(job_dir=job_dir, table=table, variant="quick", method="sa", method_label="SA", num_agents=1,
+                         task="cuboid", stages={"mid": run}, overrides=list(overrides),
+                         stage_curves={"mid": curve(*rates)})  # fmt: skip
+
+    references = [
+        one_mass("sa,seed=0", "runs/mid0", (0.3, 0.6, 0.8, 0.9)),  # at 6M: 80 %
+        one_mass("sa,seed=1", "runs/mid1", (0.3, 0.5, 0.6, 0.9)),  # at 6M: 60 %
+        one_mass("scale,seed=1", "runs/mid1", (0.3, 0.5, 0.6, 0.9), table="scale"),  # the same run, taken: once
+        one_mass("heavy", "runs/mid2", (0.0, 0.0, 0.0, 0.0), overrides=["task.object.mass=24"]),  # not its own mass
+    ]
+    found = [f for f in team_table(team + references, "quick").findings if "trained over" in str(f)]
+    assert len(found) == 1  # only the cuboid's one robot has jobs of both kinds
+    assert str(found[0]) == (
+        "cuboid / 1 robot: trained over 2.0-64.0 kg, 20.0 % at 2 kg, 10.0 % at 8 kg after 6.0M env-steps; trained at "
+        "its own 4 kg (main SA, 2 seeds), 70.0 \u00b1 10.0 % there at 6.0M: the range costs 50.0 points against the "
+        "better of them, beyond the seeds' spread (10.0)"
+    )
+    assert found[0].holds is False and found[0].numbers["gap_points"] == pytest.approx(50.0)
+    below = [one_mass("sa,seed=0", "runs/mid0", (0.1, 0.1, 0.15, 0.3))]  # 15 % at 6M: below the range's 20 %
+    close = next(f for f in team_table(team + below, "quick").findings if "trained over" in str(f))
+    assert close.holds is True and str(close).endswith("gains 5.0 points against the better of them, within the "
+                                                      "seeds' spread")  # fmt: skip
+
+
 def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
     from mapush.report.team_table import team_table
 
