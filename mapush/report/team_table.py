@@ -58,7 +58,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
                 missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses) + _exception_findings(mine, masses)
-    findings += _one_mass_findings(results, variant, rows, lines, masses)
+    findings += _one_mass_findings(results, variant, rows, mine, masses)
     findings += curve_findings.budget_findings(lines)
     return Table(
         f"team_{variant}",
@@ -124,7 +124,7 @@ def _exception_findings(mine: list[JobResult], masses: dict[str, float]) -> list
 
 
 def _one_mass_findings(
-    results: list[JobResult], variant: str, rows: list, lines: dict[str, list[JobResult]], masses: dict[str, float]
+    results: list[JobResult], variant: str, rows: list, mine: list[JobResult], masses: dict[str, float]
 ) -> list[Finding]:
     """Per object and robot count, the study's design checked: does a policy trained over the mass range learn as
     well as a mid level of the same object and robots trained at the object's own mass (another table's jobs: the
@@ -137,7 +137,7 @@ def _one_mass_findings(
         below = max((m for m in evaluated if m <= own), default=None)
         above = min((m for m in evaluated if m >= own), default=None)
         near = [k for k, mass in enumerate(evaluated) if mass in (below, above) and cells[k].values]
-        jobs = lines[f"{task} / {counted(int(n), 'robot')}"]
+        jobs = matching(mine, task=task, num_agents=int(n))
         budgets = [r.curve["points"][-1]["env_steps"] for r in jobs if r.curve and r.curve["points"]]
         references = _one_mass_references(results, variant, task, int(n))
         if not near or not budgets or not references:
