@@ -15,6 +15,7 @@ from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import object_drag, object_mass, one_robot_capacity
 
 TEAM = group_file("experiment", "team")
+MASS = "task.object.mass"  # the key that sets an object's mass (and with `_range`, draws it per episode)
 
 
 def eval_masses() -> dict[str, float]:
@@ -23,7 +24,7 @@ def eval_masses() -> dict[str, float]:
     for name, spec in TEAM.evals.items():
         for override in spec.overrides:
             key, _, value = str(override).partition("=")
-            if key == "task.object.mass":
+            if key == MASS:
                 masses[name] = float(value)
     return masses
 
@@ -77,7 +78,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
 
 
 def _range_text() -> str:
-    override = next(o for o in TEAM.overrides if str(o).startswith("task.object.mass_range="))
+    override = next(o for o in TEAM.overrides if str(o).startswith(f"{MASS}_range="))
     return str(override).partition("=")[2].replace(",", "-").strip("[]") + " kg"
 
 
@@ -143,19 +144,18 @@ def _one_mass_findings(
         if not near or not budgets or not references:
             continue
         budget = max(budgets)
-        points = [min(r.stage_curves["mid"]["points"], key=lambda p: abs(p["env_steps"] - budget)) for r in references]
-        rates = [100 * p["success_rate"] for p in points]
-        mean, std = float(np.mean(rates)), float(np.std(rates))
+        steps, rates, spreads = curve_findings.mean_curve(curve_findings.seed_curves(references, "mid"))
+        k = int(np.argmin(np.abs(steps - budget)))  # the one-mass checkpoint nearest this study's budget
+        mean, std, at_steps = 100 * float(rates[k]), 100 * float(spreads[k]), steps[k]
         best = max((cells[k] for k in near), key=lambda cell: cell.mean)
         gap, spread = mean - best.mean, std + best.std
         at = ", ".join(f"{cells[k].mean:.1f} % at {evaluated[k]:g} kg" for k in near)
         by = ", ".join(sorted({f"{r.table} {r.method_label or r.method}" for r in references}))
-        steps = sorted({p["env_steps"] / 1e6 for p in points})
         verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
         text = (
             f"{task} / {counted(int(n), 'robot')}: trained over {_range_text()}, {at} after {budget / 1e6:.1f}M "
             f"env-steps; trained at its own {own:g} kg ({by}, {counted(len(references), 'seed')}), "
-            f"{mean:.1f} \u00b1 {std:.1f} % there at {'/'.join(f'{x:.1f}' for x in steps)}M: "
+            f"{mean:.1f} \u00b1 {std:.1f} % there at {at_steps / 1e6:.1f}M: "
             f"the range {'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points against the better of them, {verdict}"
         )
         found.append(Finding(text, gap <= spread, {"range_points": best.mean, "one_mass_points": mean,
@@ -170,7 +170,7 @@ def _one_mass_references(results: list[JobResult], variant: str, task: str, robo
     for r in matching(results, variant=variant, task=task, num_agents=robots):
         if r.table == "team" or "mid" not in (r.stage_curves or {}) or curve_findings.curve_made_otherwise(r, "mid"):
             continue
-        if any(str(o).startswith("task.object.mass") for o in r.overrides):
+        if any(str(o).startswith(MASS) for o in r.overrides):
             continue
         picked.setdefault(r.stages.get("mid") or r.job_dir, r)
     return list(picked.values())
