@@ -161,6 +161,12 @@ def own_goal_target_frame(env) -> torch.Tensor:
     return rotate(env.robot_goal_xy - env.state.robot_xy, -target_heading(env))
 
 
+def object_log_mass(env) -> torch.Tensor:
+    """The object's mass as ln(kg), shared by every robot: (E, 1). For a policy trained over a range of masses (the
+    team study), which cannot tell them apart otherwise; log, as the range is drawn log-uniformly."""
+    return torch.log(torch.as_tensor(env.sim.object_masses(), dtype=torch.float32)).unsqueeze(-1)
+
+
 def agent_one_hot(env) -> torch.Tensor:
     """Each robot's one-hot index: (E, A, A)."""
     return env.agent_one_hot.expand(env.num_envs, -1, -1)

@@ -138,6 +138,12 @@ class PushSim(BatchSim):
         self.object_inertia[ids, body] = self.model.body_inertia[body] * (mass / self.model.body_mass[body])[:, None]
         self.batch.set_const(ids)  # the constants derived from masses (e.g. the contacts' inverse weights)
 
+    def object_masses(self) -> np.ndarray:
+        """The object's mass in each env, kg (E,): as `set_object_mass` set it, else the model's."""
+        if self.object_mass is None:
+            return np.full(self.num_envs, self.model.body_mass[self.object_body])
+        return self.object_mass[:, self.object_body]
+
     def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
         """Place the obstacle blocks of envs `ids`: rows (n, K, 5) of (x, y, yaw, size x, size y); sizes are fixed."""
         rows = obstacles.numpy().astype(np.float64)
