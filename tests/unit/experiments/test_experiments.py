@@ -204,6 +204,21 @@ def test_an_experiments_own_overrides_reach_every_stage_and_its_evaluations_set_
     assert any(o.startswith("task.object.mass_range=") for o in cfg.experiment.overrides)  # trained over a range
     for spec in cfg.experiment.evals.values():  # evaluated at one mass each, the range switched off
         assert spec.overrides[0] == "task.object.mass_range=null" and spec.overrides[1].startswith("task.object.mass=")
+    # the stage's policy sees each episode's mass (ln kg) as its last input, the critic too, at one mass in evaluation
+    import numpy as np
+
+    from mapush.config import compose_config, to_plain
+    from mapush.envs.mid import MidPushEnv
+    from mapush.envs.observations import global_dim, local_dim
+
+    stage = [o for o in plan[0][1] if not o.startswith("num_envs=")]
+    for extra, masses in ([], None), (list(cfg.experiment.evals.m8.overrides), 8.0):
+        env = MidPushEnv(to_plain(compose_config([*stage, *extra, "debug=smoke"])), num_envs=16)
+        obs, kg = env.observations(), env.sim.batch.expand("body_mass")[:, env.sim.object_body]
+        assert obs["policy"].shape == (16, 4, local_dim(4) + 1) and obs["critic"].shape == (16, 4, global_dim(4) + 1)
+        for group in obs.values():
+            np.testing.assert_allclose(group[..., -1].exp().numpy(), np.repeat(kg[:, None], 4, 1), rtol=1e-5)
+        assert np.all(kg == masses) if masses else kg.max() / kg.min() > 2  # drawn per episode in training
 
 
 @pytest.mark.slow
