@@ -72,11 +72,13 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     budget that has done its work) (the success gained over the last `tail` of the env-steps, mean over seeds, below
     `max_gain`), and where the mean curve peaked when that tail lost `max_gain` or more (a budget past the peak is
     no better than a shorter one); None without curves. It holds when the budget has flattened (and learned)."""
-    curves = [c for c in (curve_of(r, stage) for r in results) if c and c["points"]]
-    if not curves:
+    with_curves = [(r, c) for r, c in ((r, curve_of(r, stage)) for r in results) if c and c["points"]]
+    if not with_curves:
         return None
+    curves = [c for _, c in with_curves]
     rule = curves[0]["rule"]
-    if all(point["success_rate"] == 0 for c in curves for point in c["points"]):
+    at_zero = [(r, c) for r, c in with_curves if all(point["success_rate"] == 0 for point in c["points"])]
+    if len(at_zero) == len(curves):
         checkpoints = sum(len(c["points"]) for c in curves)
         text = f"{label}: did not learn: 0 % success at every one of {checkpoints} evaluated checkpoints"
         return Finding(text, False, {"checkpoints": checkpoints})
@@ -102,6 +104,10 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
         f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
         f"points over {seeds} (rule: < {limit:.0f}): {verdict}"
     )
+    if at_zero:  # the mean hides a seed that never learned: say which
+        named = ", ".join(f"{r.seed} ({len(c['points'])} checkpoints)" for r, c in at_zero)
+        text += f"; did not learn (0 % at every checkpoint): {'seeds' if len(at_zero) > 1 else 'seed'} {named}"
+        numbers["seeds_not_learned"] = len(at_zero)
     return Finding(text, gain < max_gain, numbers)
 
 

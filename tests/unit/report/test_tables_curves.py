@@ -129,6 +129,21 @@ def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
     assert once.holds is True and "did not learn" not in str(once) and str(once).endswith("flattened")
 
 
+def test_a_seed_whose_curve_stays_at_0_is_named_beside_the_mean_of_those_that_learned():
+    from mapush.report.curve_findings import budget_verdict
+
+    def result(seed, rates):
+        points = [{"env_steps": (k + 1) * 1_000_000, "success_rate": sr} for k, sr in enumerate(rates)]
+        return JobResult(seed=seed, curve={"rule": RULE, "points": points})
+
+    learned, never = result(0, [0.0, 0.2, 0.4, 0.5, 0.6]), result(1, [0.0] * 5)
+    verdict = budget_verdict("H+L FT", [learned, never])
+    assert str(verdict).endswith("NOT flattened: still learning; did not learn (0 % at every checkpoint): seed 1 "
+                                 "(5 checkpoints)")  # fmt: skip
+    assert verdict.numbers["seeds_not_learned"] == 1
+    assert "did not learn" not in str(budget_verdict("H+L FT", [learned, result(1, [0.0, 0.1, 0.2, 0.3, 0.4])]))
+
+
 def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
