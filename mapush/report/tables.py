@@ -29,7 +29,8 @@ CHECKED = "jobs_checked.json"
 """What the last `mapush tables` into a dir found of each archived job against its experiment then (kept there, so
 that the next finds it again without composing the job's configs while nothing it depends on changed)."""
 BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table, "team": team_table}
-"""Each table `mapush tables` writes, by the `table` its experiment names."""
+"""Each table `mapush tables` writes, by the `table` its experiment names; a builder returns None for a variant
+that makes no table of its own."""
 SUMMARY_PLOTS = {"scale": plots.scale_plot, "team": plots.team_plot}
 """The tables drawn as a figure of their own (`<table>.png`) besides their learning curves."""
 
@@ -69,6 +70,8 @@ def write_tables(
             if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
                 continue
             table = build(results, variant)
+            if table is None:  # the variant is another table's reference, not a table of its own
+                continue
             earlier = filled_before(out / f"{table.name}.json")
             if earlier > filled_cells(table) and not overwrite:
                 kept.append((table, earlier))

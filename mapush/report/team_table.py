@@ -37,9 +37,13 @@ def capacity_margin(task: str, mass: float, robots: int, capacity: float | None)
     return (low + high) / 2 / (robots * capacity)
 
 
-def team_table(results: list[JobResult], variant: str) -> Table:
-    """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin."""
+def team_table(results: list[JobResult], variant: str) -> Table | None:
+    """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin. None for
+    a variant whose every job trained at one mass (`fixed_mass`): those are the study's design check, which the
+    study's own table reads (`_fixed_mass_findings`), not a table of their own."""
     mine = matching(results, table="team", variant=variant)
+    if mine and all(fixed_mass(r) is not None for r in mine):
+        return None
     masses = eval_masses()
     capacity = one_robot_capacity()
     rows, missing, lines = [], [], {}
@@ -60,6 +64,7 @@ def team_table(results: list[JobResult], variant: str) -> Table:
             rows.append(([task, str(n)], cells))
     findings = _findings(rows, masses) + _exception_findings(mine, masses)
     findings += _one_mass_findings(results, variant, rows, mine, masses)
+    findings += _fixed_mass_findings(results, mine, rows, masses)
     findings += curve_findings.budget_findings(lines)
     return Table(
         f"team_{variant}",
@@ -174,3 +179,41 @@ def _one_mass_references(results: list[JobResult], variant: str, task: str, robo
             continue
         picked.setdefault(r.stages.get("mid") or r.job_dir, r)
     return list(picked.values())
+
+
+def fixed_mass(result: JobResult) -> float | None:
+    """The one mass (kg) a team job's policy trained at, where its sweep set it (`task.object.mass_range=null
+    task.object.mass=M` among the stage overrides); None for the study's own jobs, trained over the range."""
+    given = dict(str(o).partition("=")[::2] for o in result.overrides)
+    if given.get(f"{MASS}_range") != "null" or MASS not in given:
+        return None
+    return float(given[MASS])
+
+
+def _fixed_mass_findings(
+    results: list[JobResult], mine: list[JobResult], rows: list, masses: dict[str, float]
+) -> list[Finding]:
+    """The study's design checked directly where a sweep trained the same robots at one of the evaluated masses
+    alone (`mapush sweep experiment=team agents=1 task.object.mass_range=null task.object.mass=8.0`): the same
+    budget and the same evaluation at that mass, the range's policy against the one-mass policy."""
+    budgets = {r.budget for r in mine}
+    fixed = [r for r in results if r.table == "team" and r.budget in budgets and fixed_mass(r) is not None]
+    found = []
+    for (task, n), cells in rows:
+        for k, (name, mass) in enumerate(masses.items()):
+            references = [r for r in matching(fixed, task=task, num_agents=int(n)) if fixed_mass(r) == mass]
+            alone = collect(references, "success_rate", 100.0, eval=name)
+            if not alone.values or not cells[k].values:
+                continue
+            ranged = cells[k]
+            gap, spread = alone.mean - ranged.mean, alone.std + ranged.std
+            verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
+            text = (
+                f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {_range_text()}, "
+                f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {mass:g} kg alone "
+                f"({counted(len(alone.values), 'seed')}), {alone.mean:.1f} \u00b1 {alone.std:.1f} %: the range "
+                f"{'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points, {verdict}"
+            )
+            found.append(Finding(text, gap <= spread, {"range_points": ranged.mean, "one_mass_points": alone.mean,
+                                                       "gap_points": gap, "spread_points": spread}))  # fmt: skip
+    return found

@@ -573,6 +573,39 @@ def test_the_team_table_weighs_a_policy_trained_over_the_masses_against_one_trai
                                                       "seeds' spread")  # fmt: skip
 
 
+def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluated_mass_alone():
+    from mapush.report.team_table import fixed_mass, team_table
+
+    def job(seed, rates, overrides=(), variant="quick"):  # one robot on the cuboid, S.R. at 2 / 8 / 24 / 64 kg
+        evals = {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 8, 24, 64), rates, strict=True)}
+        return JobResult(job_dir=f"{variant},seed={seed}", table="team", budget="quick", variant=variant, seed=seed,
+                         num_agents=1, task="cuboid", overrides=list(overrides), evals=evals)  # fmt: skip
+
+    ranged = [job(0, (0.4, 0.6, 0.0, 0.0)), job(1, (0.4, 0.4, 0.0, 0.0))]  # 8 kg: 50 +- 10 %
+    at_8 = ["task.object.mass_range=null", "task.object.mass=8.0"]
+    alone = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.9), (1, 0.7))]  # 8 kg: 80 +- 10
+    assert fixed_mass(alone[0]) == 8.0 and fixed_mass(ranged[0]) is None
+    assert fixed_mass(job(0, (0,) * 4, ["task.object.mass=8.0"])) is None  # the range still drawn: not one mass
+    found = [f for f in team_table(ranged + alone, "quick").findings if "alone" in str(f)]
+    assert [str(f) for f in found] == [
+        "cuboid / 1 robot at 8 kg: trained over 2.0-64.0 kg, 50.0 \u00b1 10.0 %; trained at 8 kg alone (2 seeds), "
+        "80.0 \u00b1 10.0 %: the range costs 30.0 points, beyond the seeds' spread (20.0)"
+    ]  # only the mass the one-mass jobs trained at, though they were evaluated at every mass
+    assert found[0].holds is False and found[0].numbers["gap_points"] == pytest.approx(30.0)
+    close = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.6), (1, 0.5))]
+    assert str(next(f for f in team_table(ranged + close, "quick").findings if "alone" in str(f))).endswith(
+        "55.0 \u00b1 5.0 %: the range costs 5.0 points, within the seeds' spread"
+    )
+    table = team_table(ranged + alone, "quick")  # the one-mass jobs fill no cell of the study's own table
+    assert [c.values for (task, n), cells in table.rows if (task, n) == ("cuboid", "1") for c in cells] == [
+        [40.0, 40.0],
+        [60.0, 40.0],
+        [0.0, 0.0],
+        [0.0, 0.0],
+    ]
+    assert team_table(ranged + alone, "quick_mass-8") is None  # nor a table of their own: they are its check
+
+
 def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
     from mapush.report.team_table import team_table
 
