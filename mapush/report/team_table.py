@@ -190,14 +190,21 @@ def fixed_mass(result: JobResult) -> float | None:
     return float(given[MASS])
 
 
+def _besides_mass(result: JobResult) -> tuple[str, ...]:
+    """A job's stage overrides other than those of the object's mass."""
+    return tuple(sorted(str(o) for o in result.overrides if not str(o).startswith(MASS)))
+
+
 def _fixed_mass_findings(
     results: list[JobResult], mine: list[JobResult], rows: list, masses: dict[str, float]
 ) -> list[Finding]:
     """The study's design checked directly where a sweep trained the same robots at one of the evaluated masses
     alone (`mapush sweep experiment=team agents=1 task.object.mass_range=null task.object.mass=8.0`): the same
     budget and the same evaluation at that mass, the range's policy against the one-mass policy."""
-    budgets = {r.budget for r in mine}
-    fixed = [r for r in results if r.table == "team" and r.budget in budgets and fixed_mass(r) is not None]
+    made = {(r.budget, _besides_mass(r)) for r in mine}  # a reference made as the study, the mass apart
+    fixed = [
+        r for r in results if r.table == "team" and fixed_mass(r) is not None and (r.budget, _besides_mass(r)) in made
+    ]
     found = []
     for (task, n), cells in rows:
         for k, (name, mass) in enumerate(masses.items()):

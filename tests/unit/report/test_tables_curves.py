@@ -585,13 +585,16 @@ def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluat
     at_8 = ["task.object.mass_range=null", "task.object.mass=8.0"]
     alone = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.9), (1, 0.7))]  # 8 kg: 80 +- 10
     assert fixed_mass(alone[0]) == 8.0 and fixed_mass(ranged[0]) is None
-    assert fixed_mass(job(0, (0,) * 4, ["task.object.mass=8.0"])) is None  # the range still drawn: not one mass
-    found = [f for f in team_table(ranged + alone, "quick").findings if "alone" in str(f)]
-    assert [str(f) for f in found] == [
+    found_text = [
         "cuboid / 1 robot at 8 kg: trained over 2.0-64.0 kg, 50.0 \u00b1 10.0 %; trained at 8 kg alone (2 seeds), "
         "80.0 \u00b1 10.0 %: the range costs 30.0 points, beyond the seeds' spread (20.0)"
-    ]  # only the mass the one-mass jobs trained at, though they were evaluated at every mass
+    ]
+    assert fixed_mass(job(0, (0,) * 4, ["task.object.mass=8.0"])) is None  # the range still drawn: not one mass
+    found = [f for f in team_table(ranged + alone, "quick").findings if "alone" in str(f)]
+    assert [str(f) for f in found] == found_text  # only the mass the one-mass jobs trained at, though evaluated at all
     assert found[0].holds is False and found[0].numbers["gap_points"] == pytest.approx(30.0)
+    other = [job(s, (0.0, 0.9, 0.0, 0.0), [*at_8, "lowlevel=go1"], "quick_go1") for s in (0, 1)]  # made otherwise
+    assert [str(f) for f in team_table(ranged + alone + other, "quick").findings if "alone" in str(f)] == found_text
     close = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.6), (1, 0.5))]
     assert str(next(f for f in team_table(ranged + close, "quick").findings if "alone" in str(f))).endswith(
         "55.0 \u00b1 5.0 %: the range costs 5.0 points, within the seeds' spread"
