@@ -20,13 +20,12 @@ MASS = "task.object.mass"  # the key that sets an object's mass (and with `_rang
 
 def eval_masses() -> dict[str, float]:
     """Each evaluation of the study and the object mass (kg) it sets (`task.object.mass=M` among its overrides)."""
-    masses = {}
-    for name, spec in TEAM.evals.items():
-        for override in spec.overrides:
-            key, _, value = str(override).partition("=")
-            if key == MASS:
-                masses[name] = float(value)
-    return masses
+    return {name: float(given[MASS]) for name, spec in TEAM.evals.items() if MASS in (given := _given(spec.overrides))}
+
+
+def _given(overrides) -> dict[str, str]:
+    """`key=value` overrides as a dict of their values, as written."""
+    return dict(str(o).partition("=")[::2] for o in overrides)
 
 
 def capacity_margin(task: str, mass: float, robots: int, capacity: float | None) -> float | None:
@@ -153,19 +152,25 @@ def _one_mass_findings(
         k = int(np.argmin(np.abs(steps - budget)))  # the one-mass checkpoint nearest this study's budget
         mean, std, at_steps = 100 * float(rates[k]), 100 * float(spreads[k]), steps[k]
         best = max((cells[k] for k in near), key=lambda cell: cell.mean)
-        gap, spread = mean - best.mean, std + best.std
         at = ", ".join(f"{cells[k].mean:.1f} % at {evaluated[k]:g} kg" for k in near)
         by = ", ".join(sorted({f"{r.table} {r.method_label or r.method}" for r in references}))
-        verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
         text = (
             f"{task} / {counted(int(n), 'robot')}: trained over {_range_text()}, {at} after {budget / 1e6:.1f}M "
             f"env-steps; trained at its own {own:g} kg ({by}, {counted(len(references), 'seed')}), "
-            f"{mean:.1f} \u00b1 {std:.1f} % there at {at_steps / 1e6:.1f}M: "
-            f"the range {'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points against the better of them, {verdict}"
+            f"{mean:.1f} \u00b1 {std:.1f} % there at {at_steps / 1e6:.1f}M"
         )
-        found.append(Finding(text, gap <= spread, {"range_points": best.mean, "one_mass_points": mean,
-                                                   "gap_points": gap, "spread_points": spread}))  # fmt: skip
+        found.append(_weighed(text, best.mean, mean, std + best.std, " against the better of them"))
     return found
+
+
+def _weighed(text: str, ranged: float, alone: float, spread: float, against: str = "") -> Finding:
+    """A design check's finding: `text`, then what training over the range costs (or gains) against the one-mass
+    policy, in S.R. points, and whether that is within the seeds' `spread`."""
+    gap = alone - ranged
+    verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
+    text += f": the range {'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points{against}, {verdict}"
+    numbers = {"range_points": ranged, "one_mass_points": alone, "gap_points": gap, "spread_points": spread}
+    return Finding(text, gap <= spread, numbers)
 
 
 def _one_mass_references(results: list[JobResult], variant: str, task: str, robots: int) -> list[JobResult]:
@@ -184,7 +189,7 @@ def _one_mass_references(results: list[JobResult], variant: str, task: str, robo
 def fixed_mass(result: JobResult) -> float | None:
     """The one mass (kg) a team job's policy trained at, where its sweep set it (`task.object.mass_range=null
     task.object.mass=M` among the stage overrides); None for the study's own jobs, trained over the range."""
-    given = dict(str(o).partition("=")[::2] for o in result.overrides)
+    given = _given(result.overrides)
     if given.get(f"{MASS}_range") != "null" or MASS not in given:
         return None
     return float(given[MASS])
@@ -213,14 +218,10 @@ def _fixed_mass_findings(
             if not alone.values or not cells[k].values:
                 continue
             ranged = cells[k]
-            gap, spread = alone.mean - ranged.mean, alone.std + ranged.std
-            verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
             text = (
                 f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {_range_text()}, "
                 f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {mass:g} kg alone "
-                f"({counted(len(alone.values), 'seed')}), {alone.mean:.1f} \u00b1 {alone.std:.1f} %: the range "
-                f"{'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points, {verdict}"
+                f"({counted(len(alone.values), 'seed')}), {alone.mean:.1f} \u00b1 {alone.std:.1f} %"
             )
-            found.append(Finding(text, gap <= spread, {"range_points": ranged.mean, "one_mass_points": alone.mean,
-                                                       "gap_points": gap, "spread_points": spread}))  # fmt: skip
+            found.append(_weighed(text, ranged.mean, alone.mean, alone.std + ranged.std))
     return found
