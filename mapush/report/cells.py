@@ -88,8 +88,12 @@ def exception_shares(results: list[JobResult], eval_names: list[str]) -> tuple[d
     """Which exceptions ended the episodes of the evaluations `eval_names` of `results`: % of the episodes by kind,
     largest first (mean over the records that name their exceptions, a kind one record lacks counting 0 there;
     kinds that ended none left out), and how many records that is."""
-    shares = [r.evals[name]["exceptions"] for r in results for name in eval_names
-              if "exceptions" in r.evals.get(name, {})]  # fmt: skip
+    return record_shares([(r, name) for r in results for name in eval_names])
+
+
+def record_shares(records: list[tuple[JobResult, str]]) -> tuple[dict[str, float], int]:
+    """`exception_shares` of the given (result, evaluation name) pairs."""
+    shares = [r.evals[name]["exceptions"] for r, name in records if "exceptions" in r.evals.get(name, {})]
     if not shares:
         return {}, 0
     kinds = sorted({kind for s in shares for kind in s})

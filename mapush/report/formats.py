@@ -24,6 +24,9 @@ MADE_OTHERWISE = "made otherwise than the experiment plans now (an earlier recip
 OTHERWISE_NOTE = f"{OTHERWISE} {MADE_OTHERWISE.capitalize()}, kept until trained again (`rerun_changed=true`):"
 OTHERWISE_LEGEND = f"{OTHERWISE} {MADE_OTHERWISE}"
 """The same mark's note under a plot's title."""
+ALONE = "\u2021"
+"""Marks a team-study cell drawn from a policy trained at that cell's mass alone, not over the study's mass range."""
+ALONE_LEGEND = f"{ALONE} trained at that mass alone"
 
 
 @dataclass
@@ -125,6 +128,7 @@ class Table:
     cost: dict = field(default_factory=dict)  # what the runs behind it cost (`mapush.report.cost`)
     otherwise: list[str] = field(default_factory=list)  # jobs made otherwise than planned now, and how
     reading: str = ""  # how to read a cell, after the title in the table's heading: "ours (paper)"
+    also_behind: list = field(default_factory=list)  # jobs of a variant with no table of its own that this one reads
 
     @property
     def heading(self) -> str:
@@ -162,6 +166,7 @@ def latex(table: Table) -> str:
             .replace("\u2193", "$\\downarrow$")
             .replace(MISSING, "--")
             .replace(OTHERWISE, "$\\dagger$")
+            .replace(ALONE, "$\\ddagger$")
             .replace("_", "\\_")
         )
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from mapush.experiments.results import JobResult
 from mapush.report.curve_findings import curve_made_otherwise, mean_curve, seed_curves
-from mapush.report.formats import OTHERWISE, OTHERWISE_LEGEND, Table, counted
+from mapush.report.formats import ALONE, ALONE_LEGEND, OTHERWISE, OTHERWISE_LEGEND, Table, counted
 
 
 def _pyplot():
@@ -103,7 +103,7 @@ def scale_plot(table: Table, path: Path) -> None:
 
 def team_plot(table: Table, path: Path) -> None:
     """One heatmap per object: robots (rows) x mass (columns), coloured by S.R., each cell labelled with its S.R.
-    and capacity margin."""
+    and capacity margin (and its mark where it came from a policy trained at that mass alone)."""
     plt = _pyplot()
 
     tasks = list(dict.fromkeys(labels[0] for labels, _ in table.rows))
@@ -115,14 +115,17 @@ def team_plot(table: Table, path: Path) -> None:
         for i, (_, cells) in enumerate(rows):
             for j, cell in enumerate(cells):
                 value = "n/a" if cell.mean is None else f"{cell.mean:.0f} %"
-                ax.text(j, i, f"{value}\n{cell.note}", ha="center", va="center", fontsize=7, color="w")
+                value += f" {ALONE}" if ALONE in cell.note else ""  # the mark by the value: the margin fills its line
+                note = cell.note.replace(f" {ALONE}", "")
+                ax.text(j, i, f"{value}\n{note}", ha="center", va="center", fontsize=7, color="w")
         ax.set_xticks(range(len(table.columns)), table.columns)
         ax.set_yticks(range(len(rows)), [str(n) for n, _ in rows])
         ax.set_xlabel("object mass")
         ax.set_ylabel("robots")
         ax.set_title(task)
         fig.colorbar(image, ax=ax, label="S.R. (%)")
-    fig.suptitle(table.title, fontsize=9)
+    alone = any(ALONE in cell.note for _, cells in table.rows for cell in cells)
+    fig.suptitle(table.title + (f"\n{ALONE_LEGEND}" if alone else ""), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

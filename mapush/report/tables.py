@@ -76,7 +76,7 @@ def write_tables(
             if earlier > filled_cells(table) and not overwrite:
                 kept.append((table, earlier))
                 continue
-            behind = matching(results, table=kind, variant=variant)
+            behind = matching(results, table=kind, variant=variant) + table.also_behind  # each counted in its cost
             table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
             table.cost = measured_cost(behind)
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])

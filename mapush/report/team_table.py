@@ -10,8 +10,8 @@ import numpy as np
 from mapush.config import group_file
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import collect, exception_shares, matching, named_shares
-from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
+from mapush.report.cells import collect, matching, named_shares, record_shares
+from mapush.report.formats import ALONE, OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import object_drag, object_mass, one_robot_capacity
 
 TEAM = group_file("experiment", "team")
@@ -37,35 +37,56 @@ def capacity_margin(task: str, mass: float, robots: int, capacity: float | None)
 
 
 def team_table(results: list[JobResult], variant: str) -> Table | None:
-    """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin. None for
-    a variant whose every job trained at one mass (`fixed_mass`): those are the study's design check, which the
-    study's own table reads (`_fixed_mass_findings`), not a table of their own."""
+    """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin. A row
+    whose robots the study also trained at every evaluated mass alone (`fixed_mass`, the design check) is drawn from
+    those policies, marked ALONE: what a team of that size reaches at each mass, not how well one policy learns the
+    range. None for a variant whose every job trained at one mass: those are read by the study's own table."""
     mine = matching(results, table="team", variant=variant)
     if mine and all(fixed_mass(r) is not None for r in mine):
         return None
     masses = eval_masses()
     capacity = one_robot_capacity()
-    rows, missing, lines = [], [], {}
+    alone = _made_as(results, mine)
+    rows, ranged_rows, missing, drawn, lines, records, alone_lines = [], [], [], [], {}, {}, {}
     for task in TEAM.sweep.task:
         for n in TEAM.sweep.agents:
+            label = f"{task} / {counted(n, 'robot')}"
             jobs = [r for r in mine if r.task == task and r.num_agents == n]
-            lines[f"{task} / {counted(n, 'robot')}"] = jobs
-            cells = []
-            for name, mass in masses.items():
-                cell = collect(jobs, "success_rate", 100.0, eval=name)
+            lines[label] = jobs
+            at = {name: [r for r in matching(alone, task=task, num_agents=n) if fixed_mass(r) == mass]
+                  for name, mass in masses.items()}  # fmt: skip
+            ranged = [collect(jobs, "success_rate", 100.0, eval=name) for name in masses]
+            each = [collect(at[name], "success_rate", 100.0, eval=name) for name in masses]
+            drawn_alone = all(cell.values for cell in each)
+            cells = each if drawn_alone else ranged
+            for cell, (name, mass) in zip(cells, masses.items(), strict=True):
                 margin = capacity_margin(task, mass, n, capacity)
                 cell.note = f"margin {margin:.2f}" if margin is not None else ""
-                cells.append(cell)
+                cell.note += f" {ALONE}" if drawn_alone else ""
                 if jobs and not cell.values:
-                    missing.append(f"{task} / {counted(n, 'robot')} / {mass:g} kg: no job evaluated it ({name})")
-            if not jobs:
-                missing.append(f"{task} / {counted(n, 'robot')}: no finished job")
+                    missing.append(f"{label} / {mass:g} kg: no job evaluated it ({name})")
+            if not jobs and not drawn_alone:
+                missing.append(f"{label}: no finished job")
+            records[task, n] = [(r, name) for name in masses for r in at[name]] if drawn_alone else [
+                (r, name) for r in jobs for name in masses]  # fmt: skip
+            if drawn_alone:
+                drawn.append(label)
+                alone_lines |= {
+                    f"{label} at {masses[name]:g} kg alone": at[name]
+                    for name in masses
+                    if all((r.curve or {}).get("eval") == name for r in at[name])
+                }  # its curve at its mass
             rows.append(([task, str(n)], cells))
-    findings = _findings(rows, masses) + _exception_findings(mine, masses)
-    findings += _one_mass_findings(results, variant, rows, mine, masses)
-    findings += _fixed_mass_findings(results, mine, rows, masses)
-    findings += curve_findings.budget_findings(lines)
-    return Table(
+            ranged_rows.append(([task, str(n)], ranged))
+    findings = _findings(rows, masses) + _exception_findings(records)
+    findings += _one_mass_findings(results, variant, ranged_rows, mine, masses)
+    findings += _fixed_mass_findings(alone, ranged_rows, masses)
+    findings += curve_findings.budget_findings(lines) + curve_findings.budget_findings(alone_lines)
+    alone_text = (
+        f" {ALONE}: one policy per mass, trained at that mass alone, where the study trained the robot count at every "
+        f"mass ({', '.join(drawn)}); the lines below weigh the range's policy against it."
+    )
+    table = Table(
         f"team_{variant}",
         f"When is a team needed? Mid level, S.R. (%) by object mass ({variant})",
         ["Object", "Robots"],
@@ -75,10 +96,13 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
         "The mid level alone on its 20 s pushes, one policy per robot count trained over masses of "
         f"{_range_text()} and evaluated at each mass; {OVER_SEEDS}. Margin: the object's "
         f"drag (mass x g x its mean friction) over the robots' summed push capacity ({capacity or 0:.1f} N each, the "
-        "calibrated tracker's): above 1 the team cannot move it even all pushing at once.",
+        "calibrated tracker's): above 1 the team cannot move it even all pushing at once."
+        + (alone_text if drawn else ""),
         findings,
         {"Team": lines},
     )
+    table.also_behind = alone  # the design check's jobs make no table of their own: this one counts their cost
+    return table
 
 
 def _range_text() -> str:
@@ -110,15 +134,16 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
     return found
 
 
-def _exception_findings(mine: list[JobResult], masses: dict[str, float]) -> list[Finding]:
-    """Per object, what ended each robot count's episodes (falls, collisions, ...), over every mass and seed, so a
-    low S.R. reads with its cause (e.g. a crowd that collides at a mass one robot pushes)."""
+def _exception_findings(records: dict[tuple[str, int], list[tuple[JobResult, str]]]) -> list[Finding]:
+    """Per object, what ended each robot count's episodes (falls, collisions, ...), over every mass and seed of the
+    evaluations its row is drawn from, so a low S.R. reads with its cause (e.g. a crowd that collides at a mass one
+    robot pushes)."""
     found = []
     for task in TEAM.sweep.task:
         parts = []
         for n in TEAM.sweep.agents:
-            shares, records = exception_shares(matching(mine, task=task, num_agents=n), list(masses))
-            if records:
+            shares, count = record_shares(records.get((task, n), []))
+            if count:
                 parts.append((counted(n, "robot"), shares))
         if parts:
             text = "; ".join(f"{robots}: {named_shares(shares) or 'none'}" for robots, shares in parts)
@@ -200,28 +225,31 @@ def _besides_mass(result: JobResult) -> tuple[str, ...]:
     return tuple(sorted(str(o) for o in result.overrides if not str(o).startswith(MASS)))
 
 
-def _fixed_mass_findings(
-    results: list[JobResult], mine: list[JobResult], rows: list, masses: dict[str, float]
-) -> list[Finding]:
+def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]:
+    """The team jobs trained at one evaluated mass alone and made as the study's own jobs, the mass apart (same
+    budget, same other overrides): the study's design check."""
+    made = {(r.budget, _besides_mass(r)) for r in mine}
+    return [
+        r for r in results if r.table == "team" and fixed_mass(r) is not None and (r.budget, _besides_mass(r)) in made
+    ]
+
+
+def _fixed_mass_findings(alone: list[JobResult], ranged_rows: list, masses: dict[str, float]) -> list[Finding]:
     """The study's design checked directly where a sweep trained the same robots at one of the evaluated masses
     alone (`mapush sweep experiment=team agents=1 task.object.mass_range=null task.object.mass=8.0`): the same
     budget and the same evaluation at that mass, the range's policy against the one-mass policy."""
-    made = {(r.budget, _besides_mass(r)) for r in mine}  # a reference made as the study, the mass apart
-    fixed = [
-        r for r in results if r.table == "team" and fixed_mass(r) is not None and (r.budget, _besides_mass(r)) in made
-    ]
     found = []
-    for (task, n), cells in rows:
+    for (task, n), cells in ranged_rows:
         for k, (name, mass) in enumerate(masses.items()):
-            references = [r for r in matching(fixed, task=task, num_agents=int(n)) if fixed_mass(r) == mass]
-            alone = collect(references, "success_rate", 100.0, eval=name)
-            if not alone.values or not cells[k].values:
+            references = [r for r in matching(alone, task=task, num_agents=int(n)) if fixed_mass(r) == mass]
+            one = collect(references, "success_rate", 100.0, eval=name)
+            if not one.values or not cells[k].values:
                 continue
             ranged = cells[k]
             text = (
                 f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {_range_text()}, "
                 f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {mass:g} kg alone "
-                f"({counted(len(alone.values), 'seed')}), {alone.mean:.1f} \u00b1 {alone.std:.1f} %"
+                f"({counted(len(one.values), 'seed')}), {one.mean:.1f} \u00b1 {one.std:.1f} %"
             )
-            found.append(_weighed(text, ranged.mean, alone.mean, alone.std + ranged.std))
+            found.append(_weighed(text, ranged.mean, one.mean, one.std + ranged.std))
     return found

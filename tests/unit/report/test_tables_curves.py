@@ -609,6 +609,54 @@ def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluat
     assert team_table(ranged + alone, "quick_mass-8") is None  # nor a table of their own: they are its check
 
 
+def test_a_row_trained_at_every_mass_alone_is_drawn_from_those_policies_and_marked(tmp_path):
+    from mapush.report.formats import ALONE
+    from mapush.report.plots import team_plot
+    from mapush.report.team_table import team_table
+
+    def job(seed, rates, overrides=(), variant="quick", exceptions=None):  # one robot on the cylinder
+        evals = {f"m{m}": {"success_rate": sr} | ({"exceptions": exceptions} if exceptions else {})
+                 for m, sr in zip((2, 8, 24, 64), rates, strict=True)}  # fmt: skip
+        curve = {
+            "eval": "m8",
+            "points": [{"env_steps": 2e6 * k, "success_rate": 0.1 * k} for k in (1, 2, 3)],
+            "rule": {"tail": 0.2, "max_gain": 0.03},
+        }  # the study's curves: each policy evaluated at 8 kg
+        return JobResult(job_dir=f"{variant},seed={seed}", table="team", budget="quick", variant=variant, seed=seed,
+                         num_agents=1, task="cylinder", overrides=list(overrides), evals=evals,
+                         curve=curve)  # fmt: skip
+
+    ranged = [job(s, (0.1, 0.1, 0.2, 0.0), exceptions={"robot_tilt": 0.5}) for s in (0, 1)]
+    alone = [  # each mass's policy scores at its own mass what the rates say; elsewhere 0 (never read)
+        job(s, tuple(sr if k == i else 0.0 for k in range(4)), ["task.object.mass_range=null", f"task.object.mass={m}"],
+            f"quick_mass-{m}", {"robot_collision": 0.2})
+        for i, (m, sr) in enumerate(((2.0, 0.4), (8.0, 0.3), (24.0, 0.3), (64.0, 0.0))) for s in (0, 1)
+    ]  # fmt: skip
+    table = team_table(ranged + alone, "quick")
+    cells = dict((tuple(labels), cells) for labels, cells in table.rows)[("cylinder", "1")]
+    assert [c.mean for c in cells] == pytest.approx([40.0, 30.0, 30.0, 0.0])  # not the range's 10 / 10 / 20 / 0
+    assert all(c.note.endswith(ALONE) for c in cells) and "(cylinder / 1 robot)" in table.note
+    found = [str(f) for f in table.findings]
+    check = (
+        "cylinder / 1 robot at 2 kg: trained over 2.0-64.0 kg, 10.0 \u00b1 0.0 %; trained at 2 kg alone (2 seeds), "
+        "40.0 \u00b1 0.0 %: the range costs 30.0 points, beyond the seeds' spread (0.0)"
+    )
+    ended = "cylinder: episodes ended by an exception (mean over masses and seeds): 1 robot: robot_collision 20 %"
+    assert check in found and ended in found  # the design check still reads the range; what ended, the row's jobs
+    assert "cylinder / 1 robot: no finished job" not in table.missing
+    budgets = [line.split(":")[0] for line in found if "of the budget added" in line]
+    assert budgets == [
+        "cylinder / 1 robot",
+        "cylinder / 1 robot at 8 kg alone",
+    ]  # the others' curves: not at their mass
+    dropped = [r for r in alone if "mass=64.0" not in r.overrides[1]]  # one mass short: the range's row again
+    short = dict((tuple(labels), cells) for labels, cells in team_table(ranged + dropped, "quick").rows)
+    assert [c.mean for c in short[("cylinder", "1")]] == pytest.approx([10.0, 10.0, 20.0, 0.0])
+    assert ALONE not in team_table(ranged + dropped, "quick").note
+    team_plot(table, tmp_path / "team.png")
+    assert (tmp_path / "team.png").stat().st_size > 0
+
+
 def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
     from mapush.report.team_table import team_table
 
