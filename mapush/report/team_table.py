@@ -54,7 +54,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
             jobs = [r for r in mine if r.task == task and r.num_agents == n]
             lines[label] = jobs
             at = {name: [r for r in matching(alone, task=task, num_agents=n) if fixed_mass(r) == mass]
-                  for name, mass in masses.items()}  # fmt: skip
+                  for name, mass in masses.items()}  # fmt: skip  # evaluation name: the jobs trained at its mass
             ranged = [collect(jobs, "success_rate", 100.0, eval=name) for name in masses]
             each = [collect(at[name], "success_rate", 100.0, eval=name) for name in masses]
             drawn_alone = all(cell.values for cell in each)
@@ -67,15 +67,13 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
                     missing.append(f"{label} / {mass:g} kg: no job evaluated it ({name})")
             if not jobs and not drawn_alone:
                 missing.append(f"{label}: no finished job")
-            records[task, n] = [(r, name) for name in masses for r in at[name]] if drawn_alone else [
-                (r, name) for r in jobs for name in masses]  # fmt: skip
             if drawn_alone:
                 drawn.append(label)
-                alone_lines |= {
-                    f"{label} at {masses[name]:g} kg alone": at[name]
-                    for name in masses
-                    if all((r.curve or {}).get("eval") == name for r in at[name])
-                }  # its curve at its mass
+                records[task, n] = [(r, name) for name, behind in at.items() for r in behind]
+                alone_lines |= {f"{label} at {masses[name]:g} kg alone": behind for name, behind in at.items()
+                                if all(_curve_eval(r) == name for r in behind)}  # fmt: skip  # a curve at its own mass
+            else:
+                records[task, n] = [(r, name) for r in jobs for name in masses]
             rows.append(([task, str(n)], cells))
             ranged_rows.append(([task, str(n)], ranged))
     findings = _findings(rows, masses) + _exception_findings(records)
@@ -103,6 +101,11 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
     )
     table.also_behind = alone  # the design check's jobs make no table of their own: this one counts their cost
     return table
+
+
+def _curve_eval(result: JobResult) -> str | None:
+    """The evaluation a job's learning curve was measured at (the study's curves are all at one mass)."""
+    return (result.curve or {}).get("eval")
 
 
 def _range_text() -> str:
