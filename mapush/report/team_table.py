@@ -47,7 +47,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
     masses = eval_masses()
     capacity = one_robot_capacity()
     alone = _made_as(results, mine)
-    rows, ranged_rows, missing, drawn, lines, records, alone_lines = [], [], [], [], {}, {}, {}
+    rows, ranged_rows, alone_rows, missing, drawn, lines, records, alone_lines = [], [], [], [], [], {}, {}, {}
     for task in TEAM.sweep.task:
         for n in TEAM.sweep.agents:
             label = f"{task} / {counted(n, 'robot')}"
@@ -76,9 +76,10 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
                 records[task, n] = [(r, name) for r in jobs for name in masses]
             rows.append(([task, str(n)], cells))
             ranged_rows.append(([task, str(n)], ranged))
+            alone_rows.append(([task, str(n)], each))
     findings = _findings(rows, masses) + _exception_findings(records)
     findings += _one_mass_findings(results, variant, ranged_rows, mine, masses)
-    findings += _fixed_mass_findings(alone, ranged_rows, masses)
+    findings += _fixed_mass_findings(alone_rows, ranged_rows, masses)
     findings += curve_findings.budget_findings(lines) + curve_findings.budget_findings(alone_lines)
     alone_text = (
         f" {ALONE}: one policy per mass, trained at that mass alone, where the study trained the robot count at every "
@@ -237,18 +238,16 @@ def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]
     ]
 
 
-def _fixed_mass_findings(alone: list[JobResult], ranged_rows: list, masses: dict[str, float]) -> list[Finding]:
+def _fixed_mass_findings(alone_rows: list, ranged_rows: list, masses: dict[str, float]) -> list[Finding]:
     """The study's design checked directly where a sweep trained the same robots at one of the evaluated masses
     alone (`mapush sweep experiment=team agents=1 task.object.mass_range=null task.object.mass=8.0`): the same
-    budget and the same evaluation at that mass, the range's policy against the one-mass policy."""
+    budget and the same evaluation at that mass, the range's policy against the one-mass policy (`team_table`'s
+    rows of each, cell by cell)."""
     found = []
-    for (task, n), cells in ranged_rows:
-        for k, (name, mass) in enumerate(masses.items()):
-            references = [r for r in matching(alone, task=task, num_agents=int(n)) if fixed_mass(r) == mass]
-            one = collect(references, "success_rate", 100.0, eval=name)
-            if not one.values or not cells[k].values:
+    for ((task, n), cells), (_, alone) in zip(ranged_rows, alone_rows, strict=True):
+        for ranged, one, mass in zip(cells, alone, masses.values(), strict=True):
+            if not one.values or not ranged.values:
                 continue
-            ranged = cells[k]
             text = (
                 f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {_range_text()}, "
                 f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {mass:g} kg alone "
