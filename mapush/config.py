@@ -39,11 +39,25 @@ def physx_average(coefficients, other: float) -> list[float] | float:
     return [round((float(mu) + float(other)) / 2, 9) for mu in coefficients]
 
 
-for _name, _resolver in (("physx_average", physx_average), ("reciprocal", lambda gain: 1.0 / float(gain))):
+ORIGINAL_COLLISION_M = {"tblock": 0.27}
+"""m; the original's base-distance collision threshold per task where it was not 0.25 (its task configs)."""
+
+
+def original_collision_m(task: str) -> float:
+    """The distance (m) between two robot bases at which the original ended a push on task `task`: 0.25 m, 0.27 m
+    on the T-block (its task configs' `termination.collision_kwargs`)."""
+    return ORIGINAL_COLLISION_M.get(str(task), 0.25)
+
+
+for _name, _resolver in (
+    ("physx_average", physx_average),
+    ("reciprocal", lambda gain: 1.0 / float(gain)),
+    ("original_collision_m", original_collision_m),
+):
     if not OmegaConf.has_resolver(_name):  # reciprocal: 1 / level.action_gain, where a mid-level command saturates
         OmegaConf.register_new_resolver(_name, _resolver)
 
-GROUPS = ("task", "level", "lowlevel", "reward", "algo", "critic", "debug")
+GROUPS = ("task", "level", "rules", "lowlevel", "reward", "algo", "critic", "debug")
 
 
 def group_file(group: str, name: str) -> DictConfig:
@@ -309,7 +323,15 @@ def level_defaults(name: str) -> DictConfig:
     return OmegaConf.merge(merged, node)
 
 
-SWAPPABLE_GROUPS = ("task", "level", "lowlevel", "reward")
+def rules_at_level(rules: str, level: str) -> DictConfig:
+    """What rules `rules` (conf/rules/) change at level `level`: conf/rules/level/<rules>_<level>.yaml."""
+    path = CONF_DIR / "rules" / "level" / f"{rules}_{level}.yaml"
+    if not path.is_file():
+        raise BadInput(f"rules={rules} has no file for level {level!r} ({path}); valid: one per level")
+    return OmegaConf.load(path)
+
+
+SWAPPABLE_GROUPS = ("task", "level", "rules", "lowlevel", "reward")
 """Groups whose file can replace a saved run's node in `apply_overrides`."""
 
 
@@ -333,7 +355,10 @@ def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
             if key not in SWAPPABLE_GROUPS:
                 raise BadInput(f"group {key!r} cannot change for an existing run; valid: {', '.join(SWAPPABLE_GROUPS)}")
             _check_groups([f"{key}={value}"])
-            cfg[key] = OmegaConf.load(CONF_DIR / key / f"{value}.yaml")
+            if key == "rules":  # the rules at the run's level, merged into its level node
+                cfg.level = OmegaConf.merge(cfg.level, rules_at_level(str(value), str(cfg.level.name)))
+            else:
+                cfg[key] = OmegaConf.load(CONF_DIR / key / f"{value}.yaml")
         elif override.is_delete():
             if not exists:
                 raise BadInput(_unknown_key_message(cfg, key))

@@ -38,6 +38,8 @@ UNSET_LATER_KEYS = {
     "task.object.mass": None,  # the object's mass set apart from its parts' (the team study)
     "task.object.mass_range": None,  # the object's mass drawn per episode (the team study)
     "level.action_gain": 1.0,  # the mid level's raw actions clipped as they are, as before the gain
+    "level.rules": "strict",  # the rules each level's own file states (conf/rules/), as before `rules=`
+    "level.fallen_robots": "act",  # a fallen robot keeps its commands, as before `fallen_robots`
 }
 """Keys added after stages were trained, with the value that leaves a stage as it was: at that value a key stays
 out of a stage's identity (and so does a parent it leaves empty), so the stages trained before it existed keep

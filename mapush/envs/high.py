@@ -199,8 +199,7 @@ class HighPushEnv(PushEnv):
         self.exception = torch.zeros(self.num_envs, dtype=torch.bool)
         for k in range(self.decision_steps):
             commands = self._commands()
-            failed = self.sim.step(commands)
-            self._read_state()
+            failed = self._advance(commands, ~finished)
             self.inner_step += (~finished).long()
             self.diverged = self._divergence(failed)
             diverged_any |= self.diverged

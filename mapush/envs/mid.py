@@ -67,8 +67,7 @@ class MidPushEnv(PushEnv):
             info with `log` (means over the episodes that ended this step) and `episode_end` per-env outcomes.
         """
         commands = commands_from_actions(actions, self.action_gain, self.action_scale)
-        failed = self.sim.step(commands)
-        self._read_state()
+        failed = self._advance(commands)
         self.episode_step += 1
         self.diverged = self._divergence(failed)
         flags = self.exception_flags()

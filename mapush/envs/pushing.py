@@ -7,6 +7,7 @@ import numpy as np
 import torch
 
 from mapush.envs.base import EnvCore
+from mapush.envs.events import EpisodeEvents
 from mapush.envs.resets import check_agent_count, check_spawn_ring
 from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS, backend_name, backend_of
@@ -37,6 +38,11 @@ class PushEnv(EnvCore):
         blocks = {"obstacles": obstacles["count"], "obstacle_size": obstacles["size"]} if obstacles else {}
         self.num_obstacles = blocks.get("obstacles", 0)
         self.lowlevel = backend_of(cfg["lowlevel"])(cfg["lowlevel"])
+        # under `level.fallen_robots: still` a robot that fell gets no commands: it lies where it fell, a body the
+        # others can touch (the tracker's, held by its force-limited actuators; a Go1 has no `fallen` and lies as
+        # its physics leaves it)
+        self.still_fallen = cfg["level"].get("fallen_robots", "act") == "still"
+        self.events = EpisodeEvents(E, task["num_agents"]) if evaluation else None  # counted where evaluated
         sim = PushSim(cfg["sim"], task, self.lowlevel, E, **blocks)
         super().__init__(cfg, sim, E, task["num_agents"], rows, sim.dt * decision_steps)
         self.sim_dt = sim.dt
@@ -61,7 +67,29 @@ class PushEnv(EnvCore):
         """Start new episodes in envs `ids`; in training, with robot dynamics drawn anew (`lowlevel.randomize`)."""
         if self.varied and len(ids):
             self.lowlevel.vary(self.sim.batch, ids, self.dynamics_rng)
+        if self.events is not None:
+            self.events.reset(torch.from_numpy(np.asarray(ids, dtype=np.int64)))
         super().reset(ids)
+
+    def _advance(self, commands: torch.Tensor, live: torch.Tensor | None = None) -> np.ndarray:
+        """One physics step of every env under `commands` (E, A, 3) (none for a robot that lies where it fell,
+        `level.fallen_robots: still`), the state read and the episode's events counted in the envs `live` (E,)
+        still running (default all); the env ids whose simulation failed."""
+        fallen = getattr(self.lowlevel, "fallen", None)
+        if self.still_fallen and fallen is not None:
+            commands = commands * torch.from_numpy(~fallen).unsqueeze(-1)
+        failed = self.sim.step(commands)
+        self._read_state()
+        if self.events is not None:
+            self.events.update(self, torch.ones(self.num_envs, dtype=torch.bool) if live is None else live)
+        return failed
+
+    def episode_end(self, done: torch.Tensor, failed: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The env core's outcomes, and in evaluation the episode's events (`EpisodeEvents.counts`)."""
+        end = super().episode_end(done, failed)
+        if self.events is not None:
+            end.update({name: torch.where(done, count, 0.0) for name, count in self.events.counts().items()})
+        return end
 
     def set_obstacles(self, ids: np.ndarray, obstacles: torch.Tensor) -> None:
         """Place the obstacles (n, K, 5) of envs `ids`, in the simulation and in the env's geometry."""

@@ -40,6 +40,12 @@ def object_tilt(env, max_rad: float) -> torch.Tensor:
     return env.state.object_tilt > max_rad
 
 
+def object_height_change(env, max_m: float) -> torch.Tensor:
+    """The object's centre more than `max_m` above or below its resting height: the original's `z_wave` on the
+    object (0.35 m), which a lifted or toppled object trips."""
+    return (env.state.object_z - env.sim.object_rest_z).abs() > max_m
+
+
 def robot_tilt(env, max_rad: float) -> torch.Tensor:
     """A robot's roll or pitch beyond `max_rad` (a fall, for backends that can fall)."""
     return (env.state.robot_tilt > max_rad).any(-1)

@@ -17,6 +17,7 @@ import torch
 from mapush.atomic import locked, remove_leftovers, write_json
 from mapush.config import apply_overrides, load_run_config, overrides_name, to_plain
 from mapush.envs.base import exception_names
+from mapush.envs.events import EVENTS
 from mapush.eval.numerics import machine_record
 from mapush.levels import build_for_eval, level_of, scene_layout
 from mapush.logging.episodes import EpisodeRecorder, LiveView
@@ -67,6 +68,7 @@ def first_episodes(env, vec, policy, seed: int, tracking: tuple[str, ...] = ()) 
     kind = torch.full((episodes,), -1)  # the exception that ended each failed episode (`env.exception_names`)
     time_s = torch.zeros(episodes)
     errors_of = {name: torch.zeros(episodes) for name in tracking}  # each episode's mean tracking errors
+    events_of: dict[str, torch.Tensor] = {}  # each episode's counts (`mapush.envs.events`), where the env counts
     path = getattr(env, "path", None)  # the high levels: the first episodes' reference paths, before any reset
     reference = {"path_length_m": path_length(path).mean().item()} if path is not None else {}
     obs = vec.get_observations()
@@ -94,6 +96,9 @@ def first_episodes(env, vec, policy, seed: int, tracking: tuple[str, ...] = ()) 
             kind[first] = end["exception_kind"][first].long()
             for name, errors in errors_of.items():
                 errors[first] = end[name][first]
+            for name in EVENTS:
+                if name in end:
+                    events_of.setdefault(name, torch.zeros(episodes))[first] = end[name][first].float()
             finished |= end["done"]
     if show:
         print("\r\033[K", end="", file=sys.stderr, flush=True)  # clear the progress line
@@ -102,9 +107,11 @@ def first_episodes(env, vec, policy, seed: int, tracking: tuple[str, ...] = ()) 
     low_level = {name: errors.mean().item() for name, errors in errors_of.items()}
     if tracking:
         low_level["fall_rate"] = exception.float().mean().item()
+    events = {name: event_record(counts) for name, counts in events_of.items()}
     return {
         **low_level,
         **reference,
+        **({"events": events} if events else {}),
         "seed": seed,
         "episodes": episodes,
         "success_rate": success.float().mean().item(),
@@ -116,6 +123,11 @@ def first_episodes(env, vec, policy, seed: int, tracking: tuple[str, ...] = ()) 
         "completion_time_episode_std": (completion_s / timeout_s).std(correction=0).item(),
         "timeout_s": timeout_s,
     }
+
+
+def event_record(counts: torch.Tensor) -> dict[str, float]:
+    """Of one count per episode (E,): the share of episodes where it happened at all, and its mean per episode."""
+    return {"episode_share": (counts > 0).float().mean().item(), "per_episode": counts.mean().item()}
 
 
 def evaluate(
@@ -224,6 +236,13 @@ def summarize(cfg: dict, policy: str, episodes: int, seeds: list[int], per_seed:
     for key in ("path_length_m", *level.tracking, "fall_rate"):
         if key in per_seed[0]:
             result[key] = float(np.mean([r[key] for r in per_seed]))
+    if "events" in per_seed[0]:  # whatever ended the episodes: falls, robot contacts, object tilts (mean over seeds)
+        events = per_seed[0]["events"]
+        result["events"] = {
+            name: {key: float(np.mean([r["events"][name][key] for r in per_seed])) for key in events[name]}
+            for name in events
+        }
+    result["rules"] = cfg["level"].get("rules", "strict")
     return result
 
 

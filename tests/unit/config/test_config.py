@@ -75,7 +75,7 @@ def test_apply_overrides_rejects_an_unknown_key_naming_the_valid_ones():
 
 
 def test_apply_overrides_rejects_a_group_that_cannot_change():
-    with pytest.raises(BadInput, match=r"'algo' cannot change.*valid: task, level, lowlevel, reward"):
+    with pytest.raises(BadInput, match=r"'algo' cannot change.*valid: task, level, rules, lowlevel, reward"):
         apply_overrides(compose_config(), ["algo=mappo"])
 
 
