@@ -13,10 +13,10 @@
 
 The two experiments load the Go1 in two ways, and it bears them differently: pushing, it holds every contact load up to
 its capacity without a fall (the object's reaction, at the nose), while a load held back on its trunk topples it at a
-lower one. The tracker sees only its contact load, so its fall model takes the held-load curve's width and the
-lowest midpoint at or above the held-load one at which the tracker, in the same push sweep, falls no more often than
-the Go1 did (`fit_contact_fall_load`): a tracker falls when something drives into it harder than its Go1 could
-hold, never for pushing as hard as its Go1 does.
+lower one. So the tracker's fall model keeps the two apart: a held-load channel fitted to the Go1's falls under a held
+load, and a contact-load curve whose midpoint is the lowest at which the tracker falls no more often than the Go1 in
+every contact test (`consistency.fit_contact_midpoint`): a tracker falls when something drives into it harder than
+its Go1 could hold, never for pushing as hard as its Go1 does.
 
 Starts are drawn per env (a lateral offset and a heading error) from `--seed`, so two seeds measure twice.
 """
@@ -83,9 +83,10 @@ def behind_cuboid(cfg: dict, offset: np.ndarray, heading: np.ndarray) -> dict[st
     }
 
 
-def push_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.ndarray]:
+def push_sweep(overrides: list[str], repeats: int, seed: int, probe=None) -> dict[str, np.ndarray]:
     """The robot of `overrides` walking into the cuboid at every drag of `DRAG_GRID`, `repeats` starts each:
-    `drag` (E,) N, `speed` (E,) the object's steady speed, m/s, `fell` (E,) whether the robot fell."""
+    `drag` (E,) N, `speed` (E,) the object's steady speed, m/s, `fell` (E,) whether the robot fell. `probe` (a
+    tracker's `consistency.HazardProbe`) records its fall hazard."""
     cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
     drag = np.repeat(DRAG_GRID, repeats)
     offset, heading = starts(len(drag), seed)
@@ -94,7 +95,8 @@ def push_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.nd
         sim.set_object_mass(np.arange(len(drag)), drag / (DRAG_FRICTION * G))
 
     commands = np.tile([PUSH_SPEED, 0.0, 0.0], (len(drag), 1))
-    run = run_steps(cfg, commands, behind_cuboid(cfg, offset, heading), SETTLE_S, PUSH_S, configure=set_drag)
+    hooks = {"during": probe.during, "after": probe.after} if probe is not None else {}
+    run = run_steps(cfg, commands, behind_cuboid(cfg, offset, heading), SETTLE_S, PUSH_S, configure=set_drag, **hooks)
     tail = max(1, round(STEADY_S / run["dt"]))
     return {
         "drag": drag,
@@ -105,9 +107,9 @@ def push_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.nd
     }
 
 
-def fall_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.ndarray]:
+def fall_sweep(overrides: list[str], repeats: int, seed: int, probe=None) -> dict[str, np.ndarray]:
     """The robot of `overrides` walking at `PUSH_SPEED` under each held load of `LOAD_GRID`, `repeats` starts each,
-    for `FALL_WINDOW_S`: `load` (E,) N and `fell` (E,)."""
+    for `FALL_WINDOW_S`: `load` (E,) N and `fell` (E,). `probe` as `push_sweep`'s."""
     cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=1"]))
     load = np.repeat(LOAD_GRID, repeats)
     _, heading = starts(len(load), seed + 1)
@@ -126,9 +128,12 @@ def fall_sweep(overrides: list[str], repeats: int, seed: int) -> dict[str, np.nd
             sim._calibration_load = sim.batch.bind("xfrc_applied")
         body = sim.model.body(ROBOT_PREFIX.format(0) + _root_body(cfg)).id
         sim._calibration_load[:, body, :2] = back
+        if probe is not None:
+            probe.during(sim)
 
     commands = np.tile([PUSH_SPEED, 0.0, 0.0], (len(load), 1))
-    run = run_steps(cfg, commands, layout, SETTLE_S, FALL_WINDOW_S, during=hold_load)
+    after = probe.after if probe is not None else None
+    run = run_steps(cfg, commands, layout, SETTLE_S, FALL_WINDOW_S, during=hold_load, after=after)
     return {"load": load, "fell": (run["tilt"] > FALL_TILT).any(1)}
 
 
@@ -175,29 +180,6 @@ def fall_overrides(fall: dict | None) -> list[str]:
     if fall is None:
         return ["lowlevel.fall=null"]
     return ["lowlevel.fall=null", "++lowlevel.fall={" + ",".join(f"{k}:{v:g}" for k, v in fall.items()) + "}"]
-
-
-def fit_contact_fall_load(
-    tracker: list[str], curve: dict[str, float], go1_falls: float, repeats: int, seed: int, resolution: float = 0.5
-) -> float | None:
-    """The lowest fall midpoint (N, to `resolution`) from the held-load fit's `curve["load_n"]` up to the top of
-    `DRAG_GRID` at which the tracker of `tracker` (overrides, its `fall` model given `curve`'s width) falls in the
-    push sweep no more often than the Go1's share `go1_falls`; None when none does. The falls only grow as the
-    midpoint drops (the same seed draws the same pushes and thresholds), so a bisection finds it."""
-
-    def falls(load_n: float) -> float:
-        fall = fall_overrides({"load_n": load_n, "width_n": curve["width_n"], **FALL_TIMES})
-        return float(push_sweep([*tracker, *fall], repeats, seed)["fell"].mean())
-
-    low, high = float(curve["load_n"]), float(DRAG_GRID[-1])
-    if falls(low) <= go1_falls:
-        return low
-    if falls(high) > go1_falls:
-        return None
-    while high - low > resolution:
-        mid = (low + high) / 2
-        low, high = (low, mid) if falls(mid) <= go1_falls else (mid, high)
-    return high
 
 
 def fall_probability(load: np.ndarray, load_n: float, width_n: float) -> np.ndarray:

@@ -5,11 +5,17 @@ Three experiments on the robot that the overrides choose (default `lowlevel=go1`
 - walking into a cuboid of growing drag -> its push capacity, the tracker's `max_force` on the planar norm, and its
   force-speed line, whose push gain sets the tracker's `lag` = mass / gain (`capacity.py`): the tracker's velocity
   actuator F = gain (v_cmd - v) is that line, so it pushes each drag at the Go1's speed;
-- walking under a growing held load -> its fall curve, whose width the tracker's `fall` model takes; its midpoint is
-  the lowest at which the tracker falls pushing no more often than the Go1 (`capacity.py`);
-- shoved back through the cuboid by two teammates walking at growing speeds -> its falls, to which the `fall`
-  model's shove curve (`shove_mps`, `shove_shape`) is fitted on the tracker's own shove speeds (`squeeze.py`).
+- walking under a growing held load -> its fall curve; the tracker's held-load channel is fitted to those falls on
+  the tracker's own load in the same starts (`consistency.fit_held_curve`);
+- pinned by teammates in six layouts, and shoved back through the cuboid by two teammates walking at growing speeds
+  -> its falls (`squeeze.py`); the tracker's contact fall curve takes the held-load curve's width and the lowest
+  midpoint at which it falls, in the push sweep, the squeezes and the shoves, no more than 10 points more often than
+  the Go1 (`consistency.fit_contact_midpoint`); a shove curve (`shove_mps`, `shove_shape`) is fitted where the Go1
+  fell when shoved.
 
+Then the tracker as it would be written runs every test with a fall outcome, and its expected falls are held
+against the Go1's, group by group (`consistency.compare`): a tracker more than 10 points apart anywhere is not
+written, and each failing group is reported.
 The fitted values replace those keys in the tracker config (each line says what it was calibrated against and when),
 except a yaw lag the robot does not follow (`STEADY_MIN`), a capacity or push gain the sweep cannot give, or a fall
 curve with no fall, which are reported instead and stay as they were; a yaw lag at the fit grid's bound is written
@@ -29,7 +35,7 @@ from omegaconf import OmegaConf
 
 from mapush.atomic import write_text
 from mapush.calibration import capacity as cap
-from mapush.calibration import squeeze
+from mapush.calibration import consistency, squeeze
 from mapush.calibration.lags import (
     AXES,
     LAG_GRID,
@@ -46,8 +52,9 @@ from mapush.errors import BadInput
 from mapush.lowlevel.go1 import policy_of
 
 CALIBRATED = "calibrated against"
-SHOVE_STARTS_PER_REPEAT = 4
-"""Starts per pair speed in the graded shove, per `repeats`: 24 at the default 6, a fall share to about 4 %."""
+SHOVE_STARTS_PER_REPEAT = 16
+"""Starts per pair speed in the graded shove and per squeeze layout, per `repeats`: 96 at the default 6, so that a
+fall share's standard error (at most 5 points) is half the consistency check's tolerance (10 points)."""
 CALIBRATED_KEYS = ("lag", "yaw_lag", "max_force", "force_cap", "fall")
 """The tracker keys a calibration writes or reads back: a config must have each at the top level."""
 
@@ -114,25 +121,37 @@ def calibrate(
         warnings.append(f"max_force: the robot still moves a {cap.DRAG_GRID[-1]:g} N drag; left as it was")
     else:
         fitted["max_force"] = round(capacity, 1)
+    envs = SHOVE_STARTS_PER_REPEAT * repeats
+    squeezes = squeeze.squeeze_sweep(reference, envs, seed)
+    go1_shoves = squeeze.shove_sweep(reference, envs, seed)
     contact_load = None
     if curve is None:
         warnings.append(f"fall: no fall under loads up to {cap.LOAD_GRID[-1]:g} N; left as it was")
     else:
-        # the tracker as fitted so far (lag, capacity), its fall midpoint matched to the Go1's falls while pushing
-        trial = {**before, **fitted, "force_cap": "planar"}
-        so_far = ["lowlevel=tracker", *_as_overrides(trial, fall=False)]
-        contact_load = cap.fit_contact_fall_load(so_far, curve, float(push["fell"].mean()), repeats, seed)
+        # the held-load curve as its own channel; the contact curve's midpoint matched to the Go1's falls in every
+        # contact test (pushing, squeezes, the graded shove), measured on the tracker as fitted so far
+        width = round(curve["width_n"], 2)
+        model = {"load_n": 0.0, "width_n": width, **cap.FALL_TIMES, "held_n": round(curve["load_n"], 1), "held_width_n": width}
+        trial = {**before, **fitted, "force_cap": "planar", "fall": model}
+        measured = consistency.measure_tracker(["lowlevel=tracker", *_as_overrides(trial)], repeats, seed, envs)
+        held = consistency.fit_held_curve(measured["held"], falls["fell"], cap.FALL_WINDOW_S)
+        model.update({k: round(v, 2) for k, v in held.items()})
+        go1 = {
+            "push_drag": push["drag"], "push_fell": push["fell"], "squeeze_first": squeezes["first_fell"],
+            "squeeze_any": squeezes["fell"], "shove_fell": go1_shoves["fell"],
+        }
+        contact_load = consistency.fit_contact_midpoint(measured, go1, model)
         if contact_load is None:
-            warnings.append("fall: the tracker falls pushing more often than the Go1 at every midpoint; left as it was")
+            warnings.append("fall: the tracker falls more often than the Go1 in a contact test at every midpoint")
         else:
-            fitted["fall"] = {"load_n": round(contact_load, 1), "width_n": round(curve["width_n"], 2), **cap.FALL_TIMES}
-    shoves = _fit_shoves(reference, before, fitted, SHOVE_STARTS_PER_REPEAT * repeats, seed, warnings)
-    write_tracker_config(config_path, fitted, source)
-    # the tracker as written, through the same push sweep
-    written = ["lowlevel=tracker", *_as_overrides(OmegaConf.load(config_path))]
-    tracker = cap.push_sweep(written, repeats, seed)
-    shoved = squeeze.shove_sweep(written, shoves["envs"], seed)
-    shoves.update(tracker_fell=shoved["fell"].tolist(), tracker_speed=shoved["speed"].tolist())
+            fitted["fall"] = {**model, "load_n": round(contact_load, 1)}
+    shoves = _fit_shoves(go1_shoves, before, fitted, envs, seed, warnings)
+    # the tracker as it would be written, in every test with a fall outcome; written only if it falls as its Go1
+    trial = {**before, **fitted, "force_cap": "planar"}
+    written = ["lowlevel=tracker", *_as_overrides(trial)]
+    measured = consistency.measure_tracker(written, repeats, seed, envs)
+    expected = consistency.tracker_record(measured, len(shoves["pair_speed"]))
+    shoves.update(tracker_fall_p=expected["shoves"])
     summary = {
         "fitted": {"free_lag": free_lag, "yaw_lag": yaw_lag, **{k: v for k, v in fitted.items() if k != "yaw_lag"}},
         "written": fitted,
@@ -156,21 +175,39 @@ def calibrate(
             "drag_n": push["drag"].tolist(),
             "object_speed": push["speed"].tolist(),
             "fell": push["fell"].tolist(),
-            "tracker_object_speed": tracker["speed"].tolist(),
-            "tracker_fell": tracker["fell"].tolist(),
+            "tracker_object_speed": measured["push_speed"].tolist(),
+            "tracker_fall_p": expected["push"],
         },
-        "falls": {"load_n": falls["load"].tolist(), "fell": falls["fell"].tolist(), "window_s": cap.FALL_WINDOW_S},
+        "falls": {
+            "load_n": falls["load"].tolist(),
+            "fell": falls["fell"].tolist(),
+            "window_s": cap.FALL_WINDOW_S,
+            "tracker_fall_p": expected["held"],
+        },
+        "squeezes": {
+            "envs": envs,
+            "layout": squeezes["layout"],
+            "first_fell": squeezes["first_fell"].tolist(),
+            "fell": squeezes["fell"].tolist(),
+            "tracker_first_fell": expected["squeezes_first"],
+            "tracker_fell": expected["squeezes_any"],
+        },
         "shoves": shoves,
     }
+    summary["consistency"] = consistency.compare(summary)
+    if summary["consistency"]["passed"]:
+        write_tracker_config(config_path, fitted, source)
+    else:
+        summary["written"] = {}
+        warnings += [f"not written: {line}" for line in consistency.describe(summary["consistency"])]
     write_text(out_dir / "calibration.json", json.dumps(summary, indent=1) + "\n")
     plot_calibration(summary, out_dir / "calibration.png")
     return summary
 
 
-def _fit_shoves(reference: list[str], before: dict, fitted: dict, envs: int, seed: int, warnings: list[str]) -> dict:
-    """The graded shove on the robot of `reference`, and the shove curve fitted to its falls on the tracker as
-    fitted so far, added to `fitted["fall"]`; what was measured, for the record."""
-    go1 = squeeze.shove_sweep(reference, envs, seed)
+def _fit_shoves(go1: dict, before: dict, fitted: dict, envs: int, seed: int, warnings: list[str]) -> dict:
+    """The shove curve fitted to the robot's falls in the graded shove (`go1`, `squeeze.shove_sweep`'s) on the
+    tracker as fitted so far, added to `fitted["fall"]`; what was measured, for the record."""
     record = {"envs": envs, **{key: go1[key].tolist() for key in ("pair_speed", "fell", "speed")}, "curve": None}
     model = fitted.get("fall")  # the load model just fitted (its four keys)
     if model is None:  # the fall model was left as it was (a warning says why): so is its shove curve
@@ -283,8 +320,10 @@ def plot_calibration(summary: dict, out: Path) -> None:
     shoves, ax = summary.get("shoves"), axes[5]
     if shoves is not None:
         ax.plot(shoves["pair_speed"], shoves["fell"], "o-", label="measured")
-        if "tracker_fell" in shoves:
-            ax.plot(shoves["pair_speed"], shoves["tracker_fell"], "s--", label="tracker as written")
+        for key in ("tracker_fall_p", "tracker_fell"):  # its expected falls (records before: its drawn falls)
+            if key in shoves:
+                ax.plot(shoves["pair_speed"], shoves[key], "s--", label="tracker as written")
+                break
     ax.set_title("shoved back by two teammates: falls")
     ax.set_xlabel("the teammates' command, m/s")
     ax.set_ylim(-0.05, 1.05)

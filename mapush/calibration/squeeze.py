@@ -88,37 +88,48 @@ def _with_drag(n: int, drag: float):
     return set_drag
 
 
-def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS) -> dict:
+def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS, probes=None) -> dict:
     """The robot of `overrides` in each of `layouts`, `envs` starts each: `layout` (L,); `fell` (L,), the share of
     starts in which a robot fell within `SQUEEZE_S`, and `first_fell` (L,), in which robot 0 did (the one squeezed
-    against the object, or shoved back)."""
+    against the object, or shoved back). `probes`: a list that gets one tracker's `HazardProbe` per layout."""
+    from mapush.calibration.consistency import HazardProbe
+
     fell, first_fell = [], []
     for name in layouts:
         cfg = to_plain(compose_config([*overrides, "task=cuboid", f"task.num_agents={agents_of(name)}"]))
         layout, drag = _layout(cfg, name, envs, seed)
         commands = np.tile([PUSH_SPEED, 0.0, 0.0], (envs, 1))
-        run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(envs, drag))
+        probe = HazardProbe() if probes is not None else None
+        hooks = {"during": probe.during, "after": probe.after} if probe is not None else {}
+        run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(envs, drag), **hooks)
+        if probes is not None:
+            probes.append(probe)
         fell.append(float((run["tilt"] > FALL_TILT).any(1).mean()))
         first_fell.append(float((run["tilts"][..., 0] > FALL_TILT).any(1).mean()))
     return {"layout": list(layouts), "fell": np.array(fell), "first_fell": np.array(first_fell), "envs": envs}
 
 
-def _graded_shove(overrides: list[str], envs: int, seed: int, pair_speeds, after=None) -> dict[str, np.ndarray]:
+def _graded_shove(
+    overrides: list[str], envs: int, seed: int, pair_speeds, after=None, during=None
+) -> dict[str, np.ndarray]:
     """`run_steps` of "2 against 1", the pair told each of `pair_speeds` (`envs` starts each, in that order) and
-    robot 0 the full `PUSH_SPEED`; `after(sim)` runs after every step of the hold."""
+    robot 0 the full `PUSH_SPEED`; `during(sim)` and `after(sim)` run before and after every step of the hold."""
     cfg = to_plain(compose_config([*overrides, "task=cuboid", "task.num_agents=3"]))
     n = envs * len(pair_speeds)
     layout, drag = _layout(cfg, "2 against 1", n, seed)
     commands = np.zeros((n, 3, 3))
     commands[:, 0, 0], commands[:, 1:, 0] = PUSH_SPEED, np.repeat(pair_speeds, envs)[:, None]
-    return run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(n, drag), after=after)
+    return run_steps(
+        cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(n, drag), after=after, during=during
+    )
 
 
-def shove_sweep(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_SPEEDS) -> dict:
+def shove_sweep(overrides: list[str], envs: int, seed: int, pair_speeds=PAIR_SPEEDS, probe=None) -> dict:
     """The robot of `overrides` shoved by a pair at each of `pair_speeds`, `envs` starts each: `pair_speed` (S,);
     `fell` (S,), the share of starts in which robot 0 fell within `SQUEEZE_S`; `speed` (S,), robot 0's median speed
-    along its heading over `SHOVE_SPEED_S` (m/s; below 0: driven back)."""
-    run = _graded_shove(overrides, envs, seed, pair_speeds)
+    along its heading over `SHOVE_SPEED_S` (m/s; below 0: driven back). `probe`: a tracker's `HazardProbe`."""
+    hooks = {"during": probe.during, "after": probe.after} if probe is not None else {}
+    run = _graded_shove(overrides, envs, seed, pair_speeds, **hooks)
     first, last = (round(s / run["dt"]) for s in SHOVE_SPEED_S)
     fell = (run["tilts"][..., 0] > FALL_TILT).any(1).reshape(len(pair_speeds), envs)
     speed = run["robot_vel"][:, first:last, 0].mean(1).reshape(len(pair_speeds), envs)

@@ -23,6 +23,12 @@ Two limits stand for the legged Go1's, as `mapush calibrate` measures them (docs
   within `window_s` P(u) = 1 - exp(-(u / shove_mps) ** shove_shape), fitted to the Go1's falls when shoved
   (`mapush/calibration/squeeze.py`): a hazard rate (u / shove_mps) ** shove_shape / window_s, none for a robot
   not shoved. Runs made before the keys have no shove hazard.
+  With `held_n` and `held_width_n`, a third hazard reads the planar force *applied* to the robot's body (MuJoCo's
+  `xfrc_applied`, as `mapush calibrate` holds a load on a trunk), low-passed alike, through the Go1's own fall
+  curve under a held load, P(L) = 1 / (1 + exp(-(L - held_n) / held_width_n)): the Go1 bears a load held back on
+  its trunk less well than one at its nose, so the tracker, whose contacts all read as one load, keeps the two
+  apart. No pushing env applies such a force; the channel makes the tracker fall in the calibration's held-load
+  test as its Go1 does (`mapush.calibration.consistency`).
 """
 
 from __future__ import annotations
@@ -46,6 +52,8 @@ FALL_KEYS = ("load_n", "width_n", "window_s", "filter_s")
 """`fall`'s keys: the fitted fall curve (N, N, s) and the load's low-pass time constant (s)."""
 SHOVE_KEYS = ("shove_mps", "shove_shape")
 """`fall`'s optional keys, both or neither: the fitted shove curve's scale (m/s) and shape (none)."""
+HELD_KEYS = ("held_n", "held_width_n")
+"""`fall`'s optional keys, both or neither: the Go1's fall curve under a load held on its trunk (N, N)."""
 DRIVEN_N = 1.0
 """N; a net contact force below this does not drive a robot (contact noise at rest)."""
 RANDOMIZED = ("lag", "yaw_lag", "max_force")
@@ -65,13 +73,18 @@ class Tracker:
         fall = cfg.get("fall")
         if fall is not None:
             keys = set(fall) if isinstance(fall, dict) else set()
-            wrong = not keys or keys not in (set(FALL_KEYS), set(FALL_KEYS) | set(SHOVE_KEYS))
+            extra = keys - set(FALL_KEYS)
+            wrong = not set(FALL_KEYS) <= keys or any(
+                bool(extra & set(pair)) and not set(pair) <= extra for pair in (SHOVE_KEYS, HELD_KEYS)
+            )
+            wrong = wrong or not extra <= set(SHOVE_KEYS) | set(HELD_KEYS)
             numbers = not wrong and all(isinstance(fall[k], int | float) for k in keys)
-            positive = ("width_n", "window_s", "filter_s", *SHOVE_KEYS)
+            positive = ("width_n", "window_s", "filter_s", "held_width_n", *SHOVE_KEYS)
             if not numbers or not all(float(fall[k]) > 0 for k in positive if k in keys):
                 raise BadInput(
                     f"lowlevel.fall={fall}: keys {', '.join(FALL_KEYS)}, optionally with {', '.join(SHOVE_KEYS)} "
-                    f"(width_n, window_s, filter_s, {', '.join(SHOVE_KEYS)} > 0), or null"
+                    f"and with {', '.join(HELD_KEYS)} (width_n, window_s, filter_s, held_width_n, "
+                    f"{', '.join(SHOVE_KEYS)} > 0), or null"
                 )
         for key, bounds in (cfg.get("randomize") or {}).items():
             if key not in RANDOMIZED:
@@ -94,6 +107,7 @@ class Tracker:
         self.planar = cfg.get("force_cap", "axes") == "planar"
         self.fall = cfg.get("fall")
         self.shoves = self.fall is not None and SHOVE_KEYS[0] in self.fall
+        self.held_channel = self.fall is not None and HELD_KEYS[0] in self.fall
         self.rng = np.random.default_rng([0, FALL_STREAM])
         self.cap: np.ndarray | None = None  # (E, A) N, each robot's planar force cap (`planar`)
 
@@ -161,6 +175,10 @@ class Tracker:
         if self.planar:
             self.forcerange = batch.expand("actuator_forcerange")
             self.cap = np.full((E, A), float(self.cfg["max_force"]))
+        if self.held_channel:
+            self.applied = batch.bind("xfrc_applied")
+            self.bodies = np.array([model.body(p + ROBOT_BODY).id for p in prefixes])
+            self.held = np.zeros((E, A))  # N, the low-passed planar force applied to each body
         if self.fall is not None:
             self.constraint, self.qvel = batch.bind("qfrc_constraint"), batch.bind("qvel")
             self.load = np.zeros((E, A))  # N, the low-passed planar contact force
@@ -176,9 +194,13 @@ class Tracker:
         z = (np.asarray(load, dtype=np.float64) - f["load_n"]) / f["width_n"]
         return np.minimum(1.0 / (1.0 + np.exp(-np.clip(z, -60.0, 60.0))), MAX_FALL_PROBABILITY)
 
-    def load_rate(self, load: np.ndarray) -> np.ndarray:
-        """The fall hazard rate (1/s) of a held load L (N): -ln(1 - P(L)) / window_s."""
-        return -np.log1p(-self.fall_probability(load)) / self.fall["window_s"]
+    def load_rate(self, load: np.ndarray, midpoint: str = "load_n", width: str = "width_n") -> np.ndarray:
+        """The fall hazard rate (1/s) of a contact load L (N): -ln(1 - P(L)) / window_s; with `midpoint` and
+        `width` naming `fall`'s held-load keys, of a load applied to the body."""
+        f = self.fall
+        z = (np.asarray(load, dtype=np.float64) - f[midpoint]) / f[width]
+        p = np.minimum(1.0 / (1.0 + np.exp(-np.clip(z, -60.0, 60.0))), MAX_FALL_PROBABILITY)
+        return -np.log1p(-p) / f["window_s"]
 
     def shove_speed(self, force: np.ndarray) -> np.ndarray:
         """(E, A) m/s: each robot's speed against its commanded planar direction while its contacts, net planar force
@@ -198,6 +220,9 @@ class Tracker:
         force = self.constraint[:, self.qvel_idx[:, :2]]  # (E, A, 2), read once for both hazards
         self.load += (np.linalg.norm(force, axis=-1) - self.load) * blend
         rate = self.load_rate(self.load)
+        if self.held_channel:
+            self.held += (np.linalg.norm(self.applied[:, self.bodies, :2], axis=-1) - self.held) * blend
+            rate = rate + self.load_rate(self.held, *HELD_KEYS)
         if self.shoves:
             self.shove += (self.shove_speed(force) - self.shove) * blend
             rate = rate + (self.shove / f["shove_mps"]) ** f["shove_shape"] / f["window_s"]
@@ -260,4 +285,6 @@ class Tracker:
         qvel[np.ix_(ids, self.qvel_idx.reshape(-1))] = 0.0
         if self.fall is not None:
             self.load[ids], self.shove[ids], self.hazard[ids], self.fallen[ids] = 0.0, 0.0, 0.0, False
+            if self.held_channel:
+                self.held[ids] = 0.0
             self.threshold[ids] = self.rng.exponential(1.0, size=(len(ids), self.threshold.shape[1]))
