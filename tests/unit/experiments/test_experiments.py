@@ -181,7 +181,8 @@ def test_stage_plan_follows_the_method_and_stops_at_the_evaluated_stage(cfg_for)
         cfg = compose(config_name="sweep", overrides=["experiment=ocb_ablation", "method=sa", "task=ocb_cuboid"])
     plan = stages_with_overrides(cfg)
     assert [name for name, _ in plan] == ["mid"]  # the ablation evaluates the mid level
-    assert plan[0][1][:2] == ["task.num_agents=1", "level=mid"]
+    # the method's overrides, then the experiment's (the paper's experiments: the original's rules), then the stage's
+    assert plan[0][1][:3] == ["task.num_agents=1", "rules=original", "level=mid"]
     assert "num_envs=500" in plan[0][1]  # the quick budget's envs
     # env-steps become iterations: 6e6 / (200 envs x 24 steps) = 1250
     assert iterations_for(cfg_for("num_envs=200"), 6.0e6) == 1250
