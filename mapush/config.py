@@ -19,6 +19,8 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput, first_line
 from mapush.migrations import absent_meant, stamp, upgrade_run_config
+from mapush.resolvers import register_resolvers
+from mapush.rules import rules_at_level
 from mapush.schema import check_config, task_weight_names
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
@@ -27,35 +29,7 @@ META_FILE = "meta.json"
 """What made a run (command, seed, git commit), written last: a dir holding it is a run (`rundir.find_runs`)."""
 
 
-def physx_average(coefficients, other: float) -> list[float] | float:
-    """The sliding friction of PhysX contacts between bodies of `coefficients` (a list, or one number) and one body
-    of `other`: the average of the two, PhysX's default combine mode, which the original ran (docs/fidelity.md).
-
-    MuJoCo takes the larger of a contact's two coefficients, so an object on a less frictional floor carries the
-    averaged value itself (the task's `object.friction`). Rounded to 1e-9 so that 0.4 stays 0.4.
-    """
-    if isinstance(coefficients, int | float):
-        return round((float(coefficients) + float(other)) / 2, 9)
-    return [round((float(mu) + float(other)) / 2, 9) for mu in coefficients]
-
-
-ORIGINAL_COLLISION_M = {"tblock": 0.27}
-"""m; the original's base-distance collision threshold per task where it was not 0.25 (its task configs)."""
-
-
-def original_collision_m(task: str) -> float:
-    """The distance (m) between two robot bases at which the original ended a push on task `task`: 0.25 m, 0.27 m
-    on the T-block (its task configs' `termination.collision_kwargs`)."""
-    return ORIGINAL_COLLISION_M.get(str(task), 0.25)
-
-
-for _name, _resolver in (
-    ("physx_average", physx_average),
-    ("reciprocal", lambda gain: 1.0 / float(gain)),
-    ("original_collision_m", original_collision_m),
-):
-    if not OmegaConf.has_resolver(_name):  # reciprocal: 1 / level.action_gain, where a mid-level command saturates
-        OmegaConf.register_new_resolver(_name, _resolver)
+register_resolvers()
 
 GROUPS = ("task", "level", "rules", "lowlevel", "reward", "algo", "critic", "debug")
 
@@ -323,14 +297,6 @@ def level_defaults(name: str) -> DictConfig:
     return OmegaConf.merge(merged, node)
 
 
-def rules_at_level(rules: str, level: str) -> DictConfig:
-    """What rules `rules` (conf/rules/) change at level `level`: conf/rules/level/<rules>_<level>.yaml."""
-    path = CONF_DIR / "rules" / "level" / f"{rules}_{level}.yaml"
-    if not path.is_file():
-        raise BadInput(f"rules={rules} has no file for level {level!r} ({path}); valid: one per level")
-    return OmegaConf.load(path)
-
-
 SWAPPABLE_GROUPS = ("task", "level", "rules", "lowlevel", "reward")
 """Groups whose file can replace a saved run's node in `apply_overrides`."""
 
@@ -356,7 +322,7 @@ def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
                 raise BadInput(f"group {key!r} cannot change for an existing run; valid: {', '.join(SWAPPABLE_GROUPS)}")
             _check_groups([f"{key}={value}"])
             if key == "rules":  # the rules at the run's level, merged into its level node
-                cfg.level = OmegaConf.merge(cfg.level, rules_at_level(str(value), str(cfg.level.name)))
+                cfg.level = OmegaConf.merge(cfg.level, rules_at_level(CONF_DIR, str(value), str(cfg.level.name)))
             else:
                 cfg[key] = OmegaConf.load(CONF_DIR / key / f"{value}.yaml")
         elif override.is_delete():

@@ -16,6 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from mapush.calibration import capacity as cap
+from mapush.calibration import squeeze
+
 TOLERANCE = 0.10
 """The largest gap between the tracker's and the Go1's fall share in any group of a test."""
 MIN_TRIALS = 24
@@ -166,7 +169,9 @@ def compare(summary: dict) -> dict:
         n = squeezes["envs"]
         tests["squeezes"] = [
             group
-            for layout, counts in zip(squeezes["layout"], zip(*(squeezes[k] for k in SQUEEZE_KEYS)), strict=True)
+            for layout, counts in zip(
+                squeezes["layout"], zip(*(squeezes[k] for k in SQUEEZE_KEYS), strict=True), strict=True
+            )
             for who, (go1, tracker) in (("robot 0", counts[:2]), ("any robot", counts[2:]))
             for group in groups([f"{layout}, {who}"], [n], [go1 * n], [tracker * n], min_trials=1)
         ]
@@ -174,7 +179,10 @@ def compare(summary: dict) -> dict:
     if "tracker_fall_p" in shoves:
         n = shoves["envs"]
         tests["shoves"] = groups(
-            shoves["pair_speed"], [n] * len(shoves["fell"]), np.array(shoves["fell"]) * n, np.array(shoves["tracker_fall_p"]) * n
+            shoves["pair_speed"],
+            [n] * len(shoves["fell"]),
+            np.array(shoves["fell"]) * n,
+            np.array(shoves["tracker_fall_p"]) * n,
         )
     failed = [name for name in TESTS if name not in tests or not all(g["ok"] for g in tests[name])]
     return {"tolerance": TOLERANCE, "min_trials": MIN_TRIALS, "tests": tests, "failed": failed, "passed": not failed}
@@ -208,13 +216,10 @@ MAX_CONTACT_LOAD_N = 400.0
 def measure_tracker(tracker: list[str], repeats: int, seed: int, envs: int) -> dict:
     """The tracker of `tracker` (overrides, with a `fall` model) in the four tests, as `mapush calibrate` runs them
     on the Go1: per test its `HazardProbe`s, and the push sweep's object speeds."""
-    from mapush.calibration import capacity as cap
-    from mapush.calibration import squeeze
-
     probes = {name: HazardProbe() for name in ("push", "held", "shoves")}
     push = cap.push_sweep(tracker, repeats, seed, probe=probes["push"])
     cap.fall_sweep(tracker, repeats, seed, probe=probes["held"])
-    layouts: list[HazardProbe] = []
+    layouts = [HazardProbe() for _ in squeeze.LAYOUTS]
     squeeze.squeeze_sweep(tracker, envs, seed, probes=layouts)
     squeeze.shove_sweep(tracker, envs, seed, probe=probes["shoves"])
     return {**probes, "squeezes": layouts, "push_speed": push["speed"]}

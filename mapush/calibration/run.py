@@ -131,15 +131,14 @@ def calibrate(
         # the held-load curve as its own channel; the contact curve's midpoint matched to the Go1's falls in every
         # contact test (pushing, squeezes, the graded shove), measured on the tracker as fitted so far
         width = round(curve["width_n"], 2)
-        model = {"load_n": 0.0, "width_n": width, **cap.FALL_TIMES, "held_n": round(curve["load_n"], 1), "held_width_n": width}
+        held_n = round(curve["load_n"], 1)
+        model = dict(load_n=0.0, width_n=width, **cap.FALL_TIMES, held_n=held_n, held_width_n=width)
         trial = {**before, **fitted, "force_cap": "planar", "fall": model}
         measured = consistency.measure_tracker(["lowlevel=tracker", *_as_overrides(trial)], repeats, seed, envs)
         held = consistency.fit_held_curve(measured["held"], falls["fell"], cap.FALL_WINDOW_S)
         model.update({k: round(v, 2) for k, v in held.items()})
-        go1 = {
-            "push_drag": push["drag"], "push_fell": push["fell"], "squeeze_first": squeezes["first_fell"],
-            "squeeze_any": squeezes["fell"], "shove_fell": go1_shoves["fell"],
-        }
+        go1 = dict(push_drag=push["drag"], push_fell=push["fell"], shove_fell=go1_shoves["fell"])
+        go1.update(squeeze_first=squeezes["first_fell"], squeeze_any=squeezes["fell"])
         contact_load = consistency.fit_contact_midpoint(measured, go1, model)
         if contact_load is None:
             warnings.append("fall: the tracker falls more often than the Go1 in a contact test at every midpoint")

@@ -91,19 +91,15 @@ def _with_drag(n: int, drag: float):
 def squeeze_sweep(overrides: list[str], envs: int, seed: int, layouts=LAYOUTS, probes=None) -> dict:
     """The robot of `overrides` in each of `layouts`, `envs` starts each: `layout` (L,); `fell` (L,), the share of
     starts in which a robot fell within `SQUEEZE_S`, and `first_fell` (L,), in which robot 0 did (the one squeezed
-    against the object, or shoved back). `probes`: a list that gets one tracker's `HazardProbe` per layout."""
-    from mapush.calibration.consistency import HazardProbe
-
+    against the object, or shoved back). `probes`: one recorder per layout (a tracker's `consistency.HazardProbe`)."""
     fell, first_fell = [], []
-    for name in layouts:
+    for k, name in enumerate(layouts):
         cfg = to_plain(compose_config([*overrides, "task=cuboid", f"task.num_agents={agents_of(name)}"]))
         layout, drag = _layout(cfg, name, envs, seed)
         commands = np.tile([PUSH_SPEED, 0.0, 0.0], (envs, 1))
-        probe = HazardProbe() if probes is not None else None
+        probe = probes[k] if probes is not None else None
         hooks = {"during": probe.during, "after": probe.after} if probe is not None else {}
         run = run_steps(cfg, commands, layout, SETTLE_S, SQUEEZE_S, configure=_with_drag(envs, drag), **hooks)
-        if probes is not None:
-            probes.append(probe)
         fell.append(float((run["tilt"] > FALL_TILT).any(1).mean()))
         first_fell.append(float((run["tilts"][..., 0] > FALL_TILT).any(1).mean()))
     return {"layout": list(layouts), "fell": np.array(fell), "first_fell": np.array(first_fell), "envs": envs}
