@@ -6,9 +6,12 @@ of the command line's answer (`assert_bad_input`)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
+import torch
 from omegaconf import OmegaConf
 
 from mapush.config import compose_config
@@ -73,3 +76,17 @@ def assert_bad_input(proc, *fragments: str) -> str:
     for fragment in fragments:
         assert fragment in lines[0]
     return lines[0]
+
+
+def face_two_robots(env) -> None:
+    """Env 0 of a one-env, two-robot mid level: the robots 2 m apart facing each other, the object 8 m away."""
+    layout = {
+        "object_xy": torch.tensor([[8.0, 8.0]]),
+        "object_yaw": torch.zeros(1),
+        "robot_xy": torch.tensor([[[-1.0, 0.0], [1.0, 0.0]]]),
+        "robot_yaw": torch.tensor([[0.0, math.pi]]),
+        "subgoal_xy": torch.tensor([[8.0, 9.0]]),
+        "friction": torch.tensor([0.3]),
+    }
+    env.sim.reset(np.array([0]), layout)
+    env._read_state()

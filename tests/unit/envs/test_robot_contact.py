@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shapely
 import torch
-from stand_ins import stand_in_env
+from stand_ins import face_two_robots, stand_in_env
 
 from mapush.config import compose_config, to_plain
 from mapush.envs import terminations
@@ -56,16 +56,7 @@ def test_two_robots_driven_into_each_other_end_the_episode_with_robot_collision(
     within the original's 0.25 m."""
     cfg = to_plain(compose_config(["debug=smoke", f"lowlevel={lowlevel}", "num_envs=1", "level.episode_length_s=20"]))
     env = MidPushEnv(cfg, num_envs=1)
-    layout = {
-        "object_xy": torch.tensor([[8.0, 8.0]]),
-        "object_yaw": torch.zeros(1),
-        "robot_xy": torch.tensor([[[-1.0, 0.0], [1.0, 0.0]]]),
-        "robot_yaw": torch.tensor([[0.0, math.pi]]),
-        "subgoal_xy": torch.tensor([[8.0, 9.0]]),
-        "friction": torch.tensor([0.3]),
-    }
-    env.sim.reset(np.array([0]), layout)
-    env._read_state()
+    face_two_robots(env)
     forward = torch.tensor([[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]])  # vx in each robot's frame
     touched_at = None
     for step in range(int(4.0 / env.dt)):

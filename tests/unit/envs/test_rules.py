@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 import pytest
 import torch
-from stand_ins import stand_in_env
+from stand_ins import face_two_robots, stand_in_env
 
 from mapush.config import compose_config, to_plain
 from mapush.envs import terminations
@@ -86,16 +83,7 @@ def test_under_the_original_rules_touching_trackers_push_on_and_the_contacts_are
     cfg = to_plain(compose_config(["debug=smoke", "lowlevel=tracker", "num_envs=1", "level.episode_length_s=20",
                                    "rules=original"]))  # fmt: skip
     env = MidPushEnv(cfg, num_envs=1, evaluation=True)
-    layout = {
-        "object_xy": torch.tensor([[8.0, 8.0]]),
-        "object_yaw": torch.zeros(1),
-        "robot_xy": torch.tensor([[[-1.0, 0.0], [1.0, 0.0]]]),
-        "robot_yaw": torch.tensor([[0.0, math.pi]]),
-        "subgoal_xy": torch.tensor([[8.0, 9.0]]),
-        "friction": torch.tensor([0.3]),
-    }
-    env.sim.reset(np.array([0]), layout)
-    env._read_state()
+    face_two_robots(env)
     forward = torch.tensor([[[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]])
     for _ in range(int(4.0 / env.dt)):
         env.step(forward)
