@@ -19,6 +19,7 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput, first_line
 from mapush.migrations import absent_meant, stamp, upgrade_run_config
+from mapush.provenance import provenance
 from mapush.resolvers import register_resolvers
 from mapush.rules import rules_at_level
 from mapush.schema import check_config, task_weight_names
@@ -199,9 +200,10 @@ def new_run_dir(cfg: DictConfig) -> Path:
 
 
 def save_run_config(run_dir: Path, cfg: DictConfig, overrides: list[str], command: str) -> None:
-    """Write what made the run: `config.yaml` (composed), `overrides.yaml`, `meta.json` (git, seed, command), and
-    `.hydra/` as every Hydra app's run dir has it (`config.yaml`, `overrides.yaml`, `hydra.yaml`)."""
-    meta = {"command": command, "seed": int(cfg.seed), **git_state(), "created": datetime.datetime.now().isoformat()}
+    """Write what made the run: `config.yaml` (composed), `overrides.yaml`, `meta.json` (git, `provenance`, seed,
+    command), and `.hydra/` as every Hydra app's run dir has it (`config.yaml`, `overrides.yaml`, `hydra.yaml`)."""
+    meta = {"command": command, "seed": int(cfg.seed), **git_state(), **provenance()}  # a wheel has no commit
+    meta["created"] = datetime.datetime.now().isoformat()
     hydra_dir = run_dir / ".hydra"
     hydra_dir.mkdir(exist_ok=True)
     hydra_node = compose_config(overrides, hydra=True).hydra
@@ -231,7 +233,8 @@ def lengthen_run(run_dir: Path, iterations: int, command: str, meta_from: Path |
         write_yaml(directory / "overrides.yaml", [*overrides, f"train.iterations={int(iterations)}"])
         write_yaml(directory / "config.yaml", cfg)
     meta = json.loads(Path(meta_from or run_dir / META_FILE).read_text())
-    step = {"from_iterations": before, "to_iterations": int(iterations), "command": command, **git_state()}
+    step = {"from_iterations": before, "to_iterations": int(iterations), "command": command}
+    step |= git_state() | provenance()
     meta["lengthened"] = [*meta.get("lengthened", []), {**step, "at": datetime.datetime.now().isoformat()}]
     write_json(run_dir / META_FILE, meta)
 

@@ -104,7 +104,11 @@ def evaluate(
         raise BadInput(f"--name {name!r} is not a plain name; valid: letters, digits, '-' and '_'")
     from mapush.rundir import resolve_checkpoint
 
-    resolve_checkpoint(target)  # a missing run is told before the simulator and PyTorch load
+    run_dir, _ = resolve_checkpoint(target)  # a missing run is told before the simulator and PyTorch load
+    from mapush.provenance import run_made_by_other_code
+
+    if warning := run_made_by_other_code(run_dir):
+        print(warning, file=sys.stderr)
     from mapush.eval.rollout import evaluate as run_eval
 
     out = run_eval(target, episodes, seed_list, list(ctx.args), live=live, name=name, video=video)

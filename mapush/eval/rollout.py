@@ -24,6 +24,7 @@ from mapush.logging.episodes import EpisodeRecorder, LiveView
 from mapush.logging.mcap_files import exit_on_sigterm
 from mapush.lowlevel import backend_of
 from mapush.planning.paths import length as path_length
+from mapush.provenance import provenance
 from mapush.rewards.manager import RewardManager
 from mapush.rundir import PACKAGE, resolve_checkpoint
 from mapush.viz.video import eval_video_path, eval_video_recorder
@@ -165,7 +166,7 @@ def evaluate(
         with locked(out_dir):  # a second evaluation into this dir waits: its files are never written twice at once
             remove_leftovers(out_dir)  # temp files of evaluations that were killed
             per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
-            write_json(out, summarize(cfg, str(checkpoint), episodes, seeds, per_seed))
+            write_json(out, summarize(cfg, str(checkpoint), episodes, seeds, per_seed) | provenance())
     except BaseException:
         if created:  # a refused evaluation (another agent count, a bad video setting) leaves nothing behind
             shutil.rmtree(out_dir, ignore_errors=True)
