@@ -58,11 +58,27 @@ def _refuse_multirun(overrides: list[str]) -> None:
     flags = [o for o in overrides if o in ("-m", "--multirun")]
     swept = [o for o in overrides if "=" in o and _is_sweep(o)]
     if flags or swept:
-        rest = [o for o in overrides if o not in flags]
         raise BadInput(
             f"mapush train runs one config, not a sweep ({' '.join(flags + swept)}); valid: one value per key, or "
-            f"`mapush sweep {' '.join(rest)}` (sweeps train, evaluate and resume every combination)"
+            f"`{_sweep_line([o for o in overrides if o not in flags])}` (sweeps train, evaluate and resume every "
+            "combination)"
         )
+
+
+def _sweep_line(overrides: list[str]) -> str:
+    """The `mapush sweep` that trains what refused `overrides` ask for and no more: one method (ours: the mid
+    level, then the high level on it), one task, and with `debug=smoke` the sweep's smoke budget (`budget=smoke`;
+    without it a sweep plans the whole main experiment at its quick budget)."""
+    task, rest = "cuboid", []
+    for override in overrides:
+        key, _, value = override.partition("=")
+        if key.lstrip("+") == "task":
+            task = value
+        elif key.lstrip("+") == "train.run_root":
+            rest.append(f"sweep_root={value}")  # a sweep's jobs go under its root
+        elif key.lstrip("+~") not in ("level", "train.run_dir", "hydra.run.dir"):  # the method's stages, its dirs
+            rest += ["budget=smoke", override] if override == "debug=smoke" else [override]
+    return " ".join(["mapush sweep method=ours", f"task={task}", *rest])
 
 
 def _is_sweep(override: str) -> bool:

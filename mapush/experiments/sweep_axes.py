@@ -43,12 +43,15 @@ if not OmegaConf.has_resolver("cores"):
 def sweep_overrides(overrides: list[str]) -> list[str]:
     """The command line overrides plus the experiment's axes that the user did not give (as comma lists).
 
-    Overrides that are not sweep keys are passed to every stage (`overrides=[...]`). Checked before anything
+    Overrides that are not sweep keys are passed to every stage (`overrides=[...]`); `debug=smoke` without a
+    budget means `budget=smoke` too, as only the budget sets a stage's iterations. Checked before anything
     launches: group names (method, experiment, launcher), the budget, and that each job's stages compose (tasks,
     agent counts, stage overrides).
     """
     listed = [o for o in overrides if o.startswith("overrides=")]  # stage overrides as a list: as if given bare
     overrides = [_as_axis(o) for o in [*(o for o in overrides if o not in listed), *_list_items(listed)]]
+    if "debug=smoke" in overrides and not any(o.startswith("budget=") for o in overrides):
+        overrides.append("budget=smoke")  # a smoke sweep is short: its stages' iterations come from the budget
     stage = [o for o in overrides if not _is_sweep_key(o)]
     overrides = [o for o in overrides if _is_sweep_key(o)]
     searchpath = [o for o in overrides if is_searchpath(o)]  # the sweep's and every stage's: tasks of yours

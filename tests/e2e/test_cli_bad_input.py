@@ -219,6 +219,15 @@ def test_hydra_multirun_habits_point_to_mapush_sweep(train_bad, args):
     assert "-m" not in line.partition("`mapush sweep")[2] and "--multirun" not in line.partition("`mapush sweep")[2]
 
 
+def test_a_smoke_multirun_points_to_a_small_sweep_that_plans_only_that(train_bad, cli):
+    line = assert_bad_input(train_bad("seed=0,1"), "not a sweep", "valid:", "`mapush sweep")
+    hint = line.partition("`mapush sweep ")[2].partition("`")[0].split()
+    assert {"method=ours", "task=cuboid", "budget=smoke", "seed=0,1"} <= set(hint), line
+    planned = cli("sweep", *hint, "--dry-run")  # its root is the refused run's (`train.run_root`): fresh
+    assert planned.returncode == 0, planned.stderr
+    assert "2 jobs" in planned.stdout and "smoke" in planned.stdout, planned.stdout
+
+
 @pytest.mark.parametrize("text", ["", "{", "- a list\n", "level: {name: mid}\n"])
 def test_a_run_whose_config_yaml_is_torn_or_empty_is_one_line(cli, run_copy, snapshot, text):
     (run_copy / "config.yaml").write_text(text)
