@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import site
 import subprocess
 import sys
+import tomllib
 import zipfile
 from pathlib import Path
 
 import pytest
 from paths import REPO
+
+from mapush.provenance import files_hash
 
 ROOT = REPO
 
@@ -46,7 +50,8 @@ def test_a_wheel_in_a_fresh_venv_trains_and_evaluates_from_another_directory(tmp
     subprocess.run([python, "-m", "pip", "install", "-q", "--no-deps", wheel], check=True)
     work = tmp_path / "elsewhere"
     work.mkdir()
-    env = {k: v for k, v in os.environ.items() if k != "MAPUSH_CONF_DIR"} | {"OMP_NUM_THREADS": "1"}
+    env = {k: v for k, v in os.environ.items() if k not in ("MAPUSH_CONF_DIR", "PYTHONPATH")}  # the wheel alone
+    env |= {"OMP_NUM_THREADS": "1"}
     where = subprocess.run(
         [python, "-c", "import mapush.config as c; print(c.CONF_DIR)"], cwd=work, env=env,
         check=True, capture_output=True, text=True,
@@ -61,4 +66,15 @@ def test_a_wheel_in_a_fresh_venv_trains_and_evaluates_from_another_directory(tmp
         [mapush, "eval", run_dir, "--episodes", "2", "--seeds", "0"], cwd=work, env=env, capture_output=True, text=True
     )
     assert evaluated.returncode == 0, evaluated.stderr
-    assert (work / run_dir / "eval.json").is_file()
+    assert "package hash" not in evaluated.stderr  # made and evaluated by the same installed code
+    # no git here (commit: null), so the version and the hash of the installed files name the code
+    installed = subprocess.run(
+        [python, "-c", "from mapush.provenance import provenance as p; import json; print(json.dumps(p()))"],
+        cwd=work, env=env, check=True, capture_output=True, text=True,
+    ).stdout  # fmt: skip
+    expected = json.loads(installed)
+    assert expected["mapush_version"] == tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    assert expected["package_hash"] == files_hash(source / "mapush")  # as the tree it was built from hashes
+    for made in ("meta.json", "eval.json"):
+        record = json.loads((work / run_dir / made).read_text())
+        assert {k: record[k] for k in expected} == expected, made
