@@ -14,7 +14,13 @@ app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
-    help="Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl.",
+    help=(
+        "Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl.\n\n"
+        "low: Go1 locomotion (mapush train level=low; a trained one ships)\n"
+        "mid: pushing the object to subgoals (mapush train; level=mid by default)\n"
+        "high: subgoals along a planned path (mapush train level=high mid=RUN_DIR)\n\n"
+        "mapush sweep trains a method's levels in turn and evaluates them (the tables)."
+    ),
 )
 
 

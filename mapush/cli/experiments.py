@@ -13,15 +13,25 @@ from mapush.errors import BadInput
 DRY_RUN = typer.Option(False, "--dry-run", help="Print the stages it would train and reuse; train nothing.")
 
 
-@app.command(context_settings=PASS_THROUGH)
-def sweep(ctx: typer.Context, dry_run: bool = DRY_RUN) -> None:
-    """Run a Hydra multirun of sweep jobs: `method=ours,sa task=cuboid,tblock seed=0,1 launcher=local|slurm|ray`.
+def _sweep_help() -> str:
+    """`mapush sweep`'s help, naming the experiments and budgets that conf/experiment/*.yaml hold now."""
+    from mapush.config import group_file, group_options
 
-    Axes not given come from the experiment (`experiment=main|ocb_ablation|scale`, `budget=quick|paper`). Each job
-    trains its method's stages and evaluates them into <sweep dir>/<job>/result.json; finished jobs are skipped
-    and cut ones resumed when the same command runs again. A stage that any sweep under the same root has
-    trained with the same config is reused, not trained again.
-    """
+    names = group_options("experiment")
+    budgets = sorted({b for name in names for b in group_file("experiment", name).get("budgets", {})})
+    return (
+        "Run a Hydra multirun of sweep jobs: `method=ours,sa task=cuboid,tblock seed=0,1 launcher=local|slurm|ray`."
+        f"\n\nAxes not given come from the experiment (`experiment={'|'.join(names)}`, `budget={'|'.join(budgets)}`"
+        " as its file lists them; `debug=smoke` without a budget means `budget=smoke`). Each job trains its method's "
+        "stages and evaluates them into <sweep dir>/<job>/result.json; finished jobs are skipped and cut ones resumed "
+        "when the same command runs again. A stage that any sweep under the same root has trained with the same "
+        "config is reused, not trained again."
+    )
+
+
+@app.command(context_settings=PASS_THROUGH, help=_sweep_help())
+def sweep(ctx: typer.Context, dry_run: bool = DRY_RUN) -> None:
+    """Run a Hydra multirun of sweep jobs (`_sweep_help`: the experiments and budgets it takes)."""
     _sweep(list(ctx.args), dry_run)
 
 
