@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app
+from mapush.cli.app import PASS_THROUGH, app, output_file
 from mapush.errors import BadInput
 
 logs = typer.Typer(no_args_is_help=True, help="Inspect and repair MCAP logs (metrics.mcap, episodes.mcap).")
@@ -14,11 +14,28 @@ app.add_typer(logs, name="logs")
 
 
 @logs.command()
-def summary(file: Path = typer.Argument(..., help="An .mcap file, finished or cut.")) -> None:
-    """Print the topics (schema, message count), the time span and whether the file is complete."""
+def summary(
+    path: Path = typer.Argument(..., help="An .mcap file (finished or cut), or a run dir (all its metrics parts)."),
+) -> None:
+    """Print a file's topics (schema, message count), time span and whether it is complete, and each training
+    scalar's last, lowest and highest value; for a run dir, its metrics files read as one series."""
+    from mapush.logging.mcap_files import training_scalars
+    from mapush.logging.scalars import format_summary, summarize
+
+    if path.is_dir():
+        parts = sorted(path.glob("metrics*.mcap"))
+        print(f"{path}: {len(parts)} metrics file(s) read as one run: {', '.join(p.name for p in parts) or 'none'}")
+        print(format_summary(summarize(training_scalars(path))))
+        return
+    _print_file_summary(path)
+
+
+def _print_file_summary(file: Path) -> None:
     from datetime import UTC, datetime
 
+    from mapush.logging.mcap_files import iter_json
     from mapush.logging.mcap_files import summary as read_summary
+    from mapush.logging.scalars import format_summary, summarize
 
     info = read_summary(file)
     state = "complete" if info["complete"] else "CUT (no index: run `mapush logs recover` for an indexed copy)"
@@ -34,6 +51,39 @@ def summary(file: Path = typer.Argument(..., help="An .mcap file, finished or cu
     for kind in ("metadata", "attachments"):
         if info[kind]:
             print(f"{kind}: {', '.join(info[kind])}")
+    scalars: dict[str, dict[int, float]] = {}
+    for topic, _, data in iter_json(file, "/metrics/"):
+        scalars.setdefault(topic.removeprefix("/metrics/"), {})[int(data["iteration"])] = float(data["value"])
+    if scalars:
+        print(format_summary(summarize(scalars)))
+
+
+@logs.command()
+def export(
+    run: Path = typer.Argument(..., help="A run dir made by `mapush train` (resumed parts included)."),
+    csv: bool = typer.Option(
+        True, "--csv/--json", help="CSV: a row per iteration, a column per scalar; JSON: {scalar: {iteration: value}}."
+    ),
+    out: Path | None = typer.Option(None, "-o", "--out", help="Write here (a new file) instead of printing."),
+) -> None:
+    """Every training scalar of a run, all its metrics files as one series, as CSV (or JSON)."""
+    import json
+
+    from mapush.atomic import write_text
+    from mapush.logging.mcap_files import training_scalars
+    from mapush.logging.scalars import to_csv
+
+    if not run.is_dir():
+        raise BadInput(f"{str(run)!r} is not a run dir; valid: a dir made by `mapush train` with metrics.mcap")
+    if out is not None and (out.exists() or out.is_symlink()):
+        raise BadInput(f"-o {str(out)!r} exists; valid: a new file path (nothing is overwritten)")
+    scalars = training_scalars(run)
+    text = to_csv(scalars) if csv else json.dumps(scalars, indent=1) + "\n"
+    if out is None:
+        print(text, end="")
+    else:
+        write_text(out, text)
+        print(out)
 
 
 @logs.command()
@@ -46,6 +96,7 @@ def recover(
 
     if out.resolve() == file.resolve():
         raise BadInput(f"-o {str(out)!r} is the input file; valid: another path (the original is kept)")
+    output_file(out, "-o")
     result = recover_file(file, out)
     cut = "" if result["complete_source"] else " (the source was cut)"
     print(f"recovered {result['messages']} messages{cut} into {result['file']}")
@@ -61,6 +112,8 @@ def layout(
     from mapush.logging.layout import episode_layout
     from mapush.rewards.manager import RewardManager
 
+    if out is not None:
+        output_file(out, "-o")
     cfg = to_plain(compose_config(list(ctx.args)))
     text = episode_layout(list(RewardManager(cfg["reward"]["terms"]).terms)).to_json()
     if out is None:

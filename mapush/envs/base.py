@@ -217,11 +217,27 @@ def observation_terms(cfg: dict) -> dict[str, list[Term]]:
 
 
 class EpisodeOutcomes:
-    """A ring buffer of the latest episodes' successes, and the `info` an env step returns about finished ones."""
+    """A ring buffer of the latest episodes' successes, and the `info` an env step returns about finished ones.
+
+    `part_way` marks envs whose running episode began part-way through (a resumed run's episodes spread over
+    their length, `AgentRowsVecEnv.episode_length_buf`): such an episode is shorter than any whole one, so it
+    stays out of the logged means and the recent success rate, which go on from the run's restored readouts.
+    """
 
     def __init__(self):
         self.recent_success = torch.full((RECENT_EPISODES,), float("nan"))
         self._next = 0
+        self.part_way: torch.Tensor | None = None  # (E,) bool, set by the learner's wrapper on a resume
+
+    def readouts(self) -> dict:
+        """The rolling success window, to keep in a checkpoint."""
+        return {"recent_success": self.recent_success.tolist(), "next": self._next}
+
+    def restore(self, saved: dict) -> None:
+        """Continue the rolling success window of a checkpoint (`readouts`)."""
+        window = torch.tensor(saved["recent_success"], dtype=torch.float)
+        if window.shape == self.recent_success.shape:
+            self.recent_success, self._next = window, int(saved["next"]) % RECENT_EPISODES
 
     def info(self, end: dict[str, torch.Tensor], episode_sums: dict, extra: dict | None = None) -> dict:
         """`{"episode_end": end, "log": ...}`: the log means over the episodes that end now (`end["done"]`).
@@ -232,6 +248,9 @@ class EpisodeOutcomes:
             extra: more per-env values (E,) to log as `Metrics/<name>` means over the finished episodes.
         """
         done = end["done"]
+        if self.part_way is not None:  # count only whole episodes; an env's next episode is whole
+            done = done & ~self.part_way
+            self.part_way &= ~end["done"]
         if not done.any():
             return {"episode_end": end, "log": {"Metrics/recent_success_rate": self.recent_success.nanmean()}}
         outcomes = end["success"][done].float()[-RECENT_EPISODES:]

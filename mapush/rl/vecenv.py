@@ -10,6 +10,8 @@ import torch
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
+from mapush.logging.metrics import PART_WAY_DONE
+
 
 def to_rows(x: torch.Tensor) -> torch.Tensor:
     """(E, A, ...) -> (E*A, ...), row = env * A + agent."""
@@ -44,6 +46,7 @@ class AgentRowsVecEnv(VecEnv):
         self.cfg = env.cfg
         self._obs = self._to_tensordict(env.observations())
         self.last_info: dict = {}
+        self.count_whole_only = False  # a resumed run's readouts count whole episodes only (`episode_length_buf`)
 
     @property
     def episode_length_buf(self) -> torch.Tensor:
@@ -52,7 +55,12 @@ class AgentRowsVecEnv(VecEnv):
 
     @episode_length_buf.setter
     def episode_length_buf(self, value: torch.Tensor) -> None:
-        self.env.episode_step[:] = from_rows(value.cpu(), self.rows_per_env)[:, 0]
+        """rsl-rl spreads the episodes over their length at the start of `learn`; on a resume (`count_whole_only`)
+        the envs set part-way are marked, so that their first episodes stay out of the readouts."""
+        steps = from_rows(value.cpu(), self.rows_per_env)[:, 0]
+        self.env.episode_step[:] = steps
+        if self.count_whole_only:
+            self.env.outcomes.part_way = steps > 0
 
     def _to_tensordict(self, obs: dict[str, torch.Tensor]) -> TensorDict:
         return TensorDict({k: to_rows(v).to(self.device) for k, v in obs.items()}, batch_size=[self.num_envs])
@@ -63,9 +71,13 @@ class AgentRowsVecEnv(VecEnv):
 
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         """Step with actions (E*A, 3); returns obs, rewards (E*A,), dones (E*A,), extras (time_outs, log)."""
+        part_way = self.env.outcomes.part_way
+        part_way = None if part_way is None else part_way.clone()
         obs, reward, terminated, truncated, info = self.env.step(from_rows(actions.cpu(), self.rows_per_env))
         self._obs = self._to_tensordict(obs)
         self.last_info = info
         dones = env_flags_to_rows(terminated | truncated, self.rows_per_env).to(self.device)
         extras = {"time_outs": env_flags_to_rows(truncated, self.rows_per_env).to(self.device), "log": info["log"]}
+        if part_way is not None:  # rows whose part-way episode ends now: the logger leaves them out
+            extras[PART_WAY_DONE] = env_flags_to_rows(part_way & (terminated | truncated), self.rows_per_env)
         return self._obs, to_rows(reward).to(self.device), dones, extras

@@ -68,7 +68,7 @@ def test_saving_with_keep_2_prunes_to_the_newest_2_and_the_best_across_a_resume(
         ["model_3.pt", "model_4.pt"],
         ["model_3.pt", "model_4.pt", "model_5.pt"],  # 3 stays as the best
     ]
-    assert torch.load(tmp_path / "model_3.pt", weights_only=True)["infos"] == {SCORE_KEY: 0.5}
+    assert torch.load(tmp_path / "model_3.pt", weights_only=True)["infos"][SCORE_KEY] == 0.5
     # a resumed run's runner knows no scores: it reads 3's 0.5 from the file
     resumed = runner_of(keep=2)
     save_at(resumed, 6, 0.45)

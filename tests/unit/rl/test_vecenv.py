@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import torch
 
+from mapush.envs.base import EpisodeOutcomes
 from mapush.rl.vecenv import AgentRowsVecEnv, env_flags_to_rows, from_rows, to_rows
 
 
@@ -42,6 +43,7 @@ class FakeEnv:
         self.cfg: dict = {}
         self.episode_step = torch.tensor([4, 9])
         self.actions = None
+        self.outcomes = EpisodeOutcomes()
 
     def observations(self):
         return {"policy": torch.arange(6.0).reshape(2, 3, 1), "critic": torch.zeros(2, 3, 4)}
@@ -100,3 +102,24 @@ def test_vecenv_rewards_are_the_env_rewards_in_row_order(make_env):
     _, reward, *_ = direct.step(actions)
     _, rows, _, _ = wrapped.step(to_rows(actions))
     assert torch.equal(rows, to_rows(reward))
+
+
+def test_an_episode_begun_part_way_stays_out_of_the_logged_success_and_the_next_one_counts():
+    outcomes = EpisodeOutcomes()
+    outcomes.part_way = torch.tensor([True, False])
+    done, success = torch.tensor([True, True]), torch.tensor([True, False])
+    end = {"done": done, "success": success, "exception": ~success, "time_s": torch.ones(2)}
+    first = outcomes.info(end, {})["log"]
+    assert first["Metrics/success_rate"] == 0.0 and first["Metrics/recent_success_rate"] == 0.0  # env 1's alone
+    second = outcomes.info(end, {})["log"]  # env 0's next episode began at a reset: it counts
+    assert second["Metrics/success_rate"] == 0.5
+    assert outcomes.part_way.tolist() == [False, False]
+
+
+def test_a_resumes_spread_marks_the_envs_it_set_part_way_and_a_fresh_runs_does_not():
+    vec = AgentRowsVecEnv(FakeEnv())
+    vec.episode_length_buf = torch.tensor([0, 0, 0, 7, 7, 7])
+    assert vec.env.outcomes.part_way is None
+    vec.count_whole_only = True
+    vec.episode_length_buf = torch.tensor([0, 0, 0, 7, 7, 7])
+    assert vec.env.outcomes.part_way.tolist() == [False, True]
