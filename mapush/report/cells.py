@@ -52,6 +52,19 @@ def exception_cell(results: list[JobResult], kind: str, scale: float, **match) -
     return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), scale)
 
 
+def event_cell(results: list[JobResult], event: str, **match) -> Cell:
+    """The cell of the % of an evaluation's episodes in which `event` happened at least once (`falls`,
+    `robot_contacts`, `object_tilts`: eval.json's `events`, whatever ended the episodes), from the results whose
+    records count events (evaluations before they were counted have none)."""
+    eval_name = match.pop("eval")
+
+    def share(r: JobResult) -> float | None:
+        found = r.evals.get(eval_name, {}).get("events", {}).get(event)
+        return None if found is None else found["episode_share"]
+
+    return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), 100.0)
+
+
 def final_cell(results: list[JobResult], stage: str, scale: float, **match) -> Cell:
     """The cell of the last point of each matching result's own curve of `stage` (`stage_curves`: e.g. the mid
     level alone under a high level, at the end of its budget), for its success rate."""

@@ -20,6 +20,7 @@ from mapush.report import curve_findings, plots
 from mapush.report.cells import matching
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
+from mapush.report.ladder_table import ladder_table
 from mapush.report.main_table import main_table
 from mapush.report.ocb_table import ocb_table
 from mapush.report.scale_table import scale_table
@@ -28,10 +29,17 @@ from mapush.report.team_table import team_table
 CHECKED = "jobs_checked.json"
 """What the last `mapush tables` into a dir found of each archived job against its experiment then (kept there, so
 that the next finds it again without composing the job's configs while nothing it depends on changed)."""
-BUILDERS = {"main": main_table, "ocb_ablation": ocb_table, "scale": scale_table, "team": team_table}
-"""Each table `mapush tables` writes, by the `table` its experiment names; a builder returns None for a variant
-that makes no table of its own."""
-SUMMARY_PLOTS = {"scale": plots.scale_plot, "team": plots.team_plot}
+BUILDERS = {
+    "main": main_table,
+    "ocb_ablation": ocb_table,
+    "scale": scale_table,
+    "team": team_table,
+    "ladder": ladder_table,
+}
+"""Each table `mapush tables` writes, by the `table` its experiment names (the ladder: by none, it reads the main
+table's, the scalability study's and the OCB ablation's jobs); a builder returns None for a variant that makes no
+table of its own."""
+SUMMARY_PLOTS = {"scale": plots.scale_plot, "team": plots.team_plot, "ladder": plots.ladder_plot}
 """The tables drawn as a figure of their own (`<table>.png`) besides their learning curves."""
 
 
