@@ -10,7 +10,7 @@ import yaml
 from mapush.config import group_file
 from mapush.experiments.results import JobResult, searchpath_overrides
 from mapush.report import curve_findings
-from mapush.report.formats import Cell, significant
+from mapush.report.formats import Cell, Finding, significant
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
 """The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; each table's `labels`
@@ -40,18 +40,6 @@ def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cel
     )
 
 
-def exception_cell(results: list[JobResult], kind: str, scale: float, **match) -> Cell:
-    """The cell of the share of an evaluation's episodes that the exception `kind` ended (e.g. `robot_tilt`: a
-    robot fell), from the results whose records name their exceptions (a kind a record lacks ended none there)."""
-    eval_name = match.pop("eval")
-
-    def share(r: JobResult) -> float | None:
-        exceptions = r.evals.get(eval_name, {}).get("exceptions")
-        return None if exceptions is None else exceptions.get(kind, 0.0)
-
-    return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), scale)
-
-
 def event_cell(results: list[JobResult], event: str, **match) -> Cell:
     """The cell of the % of an evaluation's episodes in which `event` happened at least once (`falls`,
     `robot_contacts`, `object_tilts`: eval.json's `events`, whatever ended the episodes), from the results whose
@@ -61,6 +49,24 @@ def event_cell(results: list[JobResult], event: str, **match) -> Cell:
     def share(r: JobResult) -> float | None:
         found = r.evals.get(eval_name, {}).get("events", {}).get(event)
         return None if found is None else found["episode_share"]
+
+    return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), 100.0)
+
+
+FALL = "robot_tilt"
+"""The exception a robot's fall ends an episode with (`exceptions` in `conf/level/`)."""
+
+
+def fall_cell(results: list[JobResult], **match) -> Cell:
+    """The cell of the % of an evaluation's episodes with a robot's fall: its `events` count, or, in a record made
+    before events were counted (under rules where a fall ends the episode), the share its `robot_tilt` ended."""
+    eval_name = match.pop("eval")
+
+    def share(r: JobResult) -> float | None:
+        record = r.evals.get(eval_name, {})
+        if "events" in record:
+            return record["events"]["falls"]["episode_share"]
+        return None if record.get("exceptions") is None else record["exceptions"].get(FALL, 0.0)
 
     return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), 100.0)
 
@@ -112,6 +118,34 @@ def record_shares(records: list[tuple[JobResult, str]]) -> tuple[dict[str, float
     kinds = sorted({kind for s in shares for kind in s})
     mean = {kind: 100.0 * float(np.mean([s.get(kind, 0.0) for s in shares])) for kind in kinds}
     return {kind: share for kind, share in sorted(mean.items(), key=lambda kv: -kv[1]) if share > 0}, len(shares)
+
+
+EVENTS = {"falls": "a fall", "robot_contacts": "robots touching", "object_tilts": "the object tilted"}
+"""What an evaluation counts per episode whatever ends it (eval.json's `events`), and how a finding names each."""
+
+
+def event_shares(results: list[JobResult], eval_name: str) -> tuple[dict[str, float], int]:
+    """% of the evaluation's episodes in which each event of `EVENTS` happened (mean over the records that count
+    events; those before them count none), and how many records that is."""
+    counts = [r.evals[eval_name]["events"] for r in results if "events" in r.evals.get(eval_name, {})]
+    if not counts:
+        return {}, 0
+    kinds = [kind for kind in EVENTS if all(kind in c for c in counts)]
+    return {kind: 100.0 * float(np.mean([c[kind]["episode_share"] for c in counts])) for kind in kinds}, len(counts)
+
+
+def events_finding(arms: dict[str, list[JobResult]], eval_name: str, what: str) -> list[Finding]:
+    """One line: in what share of each arm's episodes of an evaluation a robot fell, robots touched or the object
+    tilted, whatever ended them (under the original's rules a fall ends none); none where no record counts events."""
+    parts, numbers = [], {}
+    for label, results in arms.items():
+        shares, seeds = event_shares(results, eval_name)
+        if seeds:
+            parts.append(f"{label} " + ", ".join(f"{EVENTS[k]} {v:.0f} %" for k, v in shares.items()))
+            numbers.update({f"{label} {kind}": share for kind, share in shares.items()})
+    if not parts:
+        return []
+    return [Finding(f"{what}: episodes with (mean over seeds): {'; '.join(parts)}", numbers=numbers)]
 
 
 def named_shares(shares: dict[str, float]) -> str:

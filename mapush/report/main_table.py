@@ -10,7 +10,7 @@ from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import PAPER, collect, exception_shares, matching, named_shares, searchpaths
+from mapush.report.cells import PAPER, collect, events_finding, exception_shares, matching, named_shares, searchpaths
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import team_needed
 
@@ -124,7 +124,8 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str, longer: list[J
     lines = _against_the_paper(mine, paper, task, mean) if task in paper["success_rate"] else []  # not a task of yours
     lines += _baselines(mine, paper, task, sr, mean) + _learned_against_scripted(mine, paper, task, sr, longer)
     lines += _ours_otherwise(mine, paper, task, mean) + _legged_baseline(mine, paper, task)
-    return lines + _exceptions_finding(mine, paper, task)
+    arms = {paper["labels"][m]: matching(mine, method=m, task=task) for m in paper["methods"]}
+    return lines + _exceptions_finding(mine, paper, task) + events_finding(arms, "main", paper["task_labels"][task])
 
 
 def _baselines(mine: list[JobResult], paper: dict, task: str, sr: dict, mean: float) -> list[Finding]:
