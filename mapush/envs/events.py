@@ -12,21 +12,22 @@ import torch
 
 from mapush.envs import terminations
 
-FALL_TILT_RAD = 0.8
-"""rad; a robot tilted further has fallen: the pushing levels' `robot_tilt` threshold (the original's roll limit)."""
-OBJECT_TILT_RAD = 0.8
-"""rad; an object tilted further has tipped: the levels' `object_tilt` threshold."""
-CONTACT_TOLERANCE_M = 0.01
-"""m; robots whose footprints come this close touch: the levels' `robot_collision` tolerance."""
 EVENTS = ("falls", "robot_contacts", "object_tilts")
 """The per-episode counts, as `episode_end` and eval.json name them."""
 
 
 class EpisodeEvents:
     """Per-env counts for the episodes running now: the robots that fell (a fallen robot counts once, fallen for
-    good or not), and the onsets of robot contact and of object tilt (a contact held for seconds counts once)."""
+    good or not), and the onsets of robot contact and of object tilt (a contact held for seconds counts once).
 
-    def __init__(self, num_envs: int, num_agents: int):
+    `thresholds` is the config's `eval.events`: `fall_tilt_rad` (a robot tilted further has fallen),
+    `object_tilt_rad` (an object tilted further has tipped), `contact_tolerance_m` (footprints this close touch);
+    conf/config.yaml gives their sources."""
+
+    def __init__(self, num_envs: int, num_agents: int, thresholds: dict):
+        self.fall_tilt = float(thresholds["fall_tilt_rad"])
+        self.object_tilt = float(thresholds["object_tilt_rad"])
+        self.contact_tolerance = float(thresholds["contact_tolerance_m"])
         self.fell = torch.zeros(num_envs, num_agents, dtype=torch.bool)
         self.touching = torch.zeros(num_envs, dtype=torch.bool)
         self.tilted = torch.zeros(num_envs, dtype=torch.bool)
@@ -36,9 +37,9 @@ class EpisodeEvents:
     def update(self, env, live: torch.Tensor) -> None:
         """Count this physics step's events of the envs `live` (E,) whose episode is still running."""
         s = env.state
-        self.fell |= (s.robot_tilt > FALL_TILT_RAD) & live.unsqueeze(-1)
-        touching = terminations.robot_contact(env, CONTACT_TOLERANCE_M) if env.num_agents > 1 else self.touching
-        tilted = s.object_tilt > OBJECT_TILT_RAD
+        self.fell |= (s.robot_tilt > self.fall_tilt) & live.unsqueeze(-1)
+        touching = terminations.robot_contact(env, self.contact_tolerance) if env.num_agents > 1 else self.touching
+        tilted = s.object_tilt > self.object_tilt
         self.contacts += (touching & ~self.touching & live).float()
         self.tilts += (tilted & ~self.tilted & live).float()
         self.touching, self.tilted = touching, tilted

@@ -42,7 +42,8 @@ class PushEnv(EnvCore):
         # others can touch (the tracker's, held by its force-limited actuators; a Go1 has no `fallen` and lies as
         # its physics leaves it)
         self.still_fallen = cfg["level"].get("fallen_robots", "act") == "still"
-        self.events = EpisodeEvents(E, task["num_agents"]) if evaluation else None  # counted where evaluated
+        # counted where evaluated, with the thresholds of `eval.events`
+        self.events = EpisodeEvents(E, task["num_agents"], cfg["eval"]["events"]) if evaluation else None
         sim = PushSim(cfg["sim"], task, self.lowlevel, E, **blocks)
         super().__init__(cfg, sim, E, task["num_agents"], rows, sim.dt * decision_steps)
         self.sim_dt = sim.dt

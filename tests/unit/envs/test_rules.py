@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 import torch
+from conftest import composed
 from stand_ins import face_two_robots, stand_in_env
 
 from mapush.config import compose_config, to_plain
@@ -55,7 +56,7 @@ def test_the_object_lifted_rule_reads_its_height_off_its_rest():
 def test_events_count_each_fallen_robot_once_and_each_contact_and_tilt_at_its_onset():
     """Two envs, two robots 0.3 m apart (touching at 0.28 m wide) then apart then touching again; robot 1 of env 0
     tilts past 0.8 rad and stays down; the object of env 1 tips twice. Env 1 is not live in the last step."""
-    events = EpisodeEvents(num_envs=2, num_agents=2)
+    events = EpisodeEvents(num_envs=2, num_agents=2, thresholds=composed("debug=smoke")["eval"]["events"])
     size = [0.65, 0.28, 0.3]
     gaps = [0.285, 0.6, 0.285, 0.285]  # robot centres' y distance per step: touch, apart, touch, still touching
     robot_tilt = [[[0, 0], [0, 0]], [[0, 1.2], [0, 0]], [[0, 1.5], [0, 0]], [[0, 1.5], [0, 0.9]]]
@@ -89,3 +90,12 @@ def test_under_the_original_rules_touching_trackers_push_on_and_the_contacts_are
         env.step(forward)
         assert not env.exception.any()
     assert env.events.counts()["robot_contacts"][0] >= 1
+
+
+def test_the_events_count_at_the_strict_rules_own_thresholds():
+    """The counts name what mapush's rules would end an episode on: a fall, touching robots, a tipped object."""
+    cfg = composed("rules=strict", "level=mid")
+    thresholds, exceptions = cfg["eval"]["events"], cfg["level"]["exceptions"]
+    assert thresholds["fall_tilt_rad"] == exceptions["robot_tilt"]["params"]["max_rad"]
+    assert thresholds["object_tilt_rad"] == exceptions["object_tilt"]["params"]["max_rad"]
+    assert thresholds["contact_tolerance_m"] == exceptions["robot_collision"]["params"]["tolerance_m"]
