@@ -12,6 +12,7 @@ evaluation time); checkpoints and logs stay under `runs/`, which git ignores and
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -198,7 +199,24 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
         r.made_otherwise = change
         kept[name] = {"key": key, "change": change and dataclasses.asdict(change)}
     if memo is not None and kept != earlier:
-        write_json(memo, kept)
+        with contextlib.suppress(OSError):  # a read-only root: checked, not remembered
+            write_json(memo, kept)
+
+
+CHECKED = "jobs_checked.json"
+"""The memo in each results root (a runs dir, the archive) of what was found of its archived jobs against their
+experiments (`made_otherwise_all`): kept with the results it speaks of, so that any `mapush tables`, into any dir,
+finds it again without composing the jobs' configs while nothing they depend on changed."""
+
+
+def check_results(results: list[JobResult]) -> None:
+    """`made_otherwise_all` for the results of each root they were read from (`<root>/<sweep>/<job>/`), with that
+    root's memo (`CHECKED`); a root that cannot be written keeps its memo as it was."""
+    by_root: dict[Path, list[JobResult]] = {}
+    for r in results:
+        by_root.setdefault(Path(r.job_dir).parent.parent, []).append(r)
+    for root, found in by_root.items():
+        made_otherwise_all(found, memo=root / CHECKED)
 
 
 def _read_memo(memo: Path | None) -> dict:
@@ -216,12 +234,22 @@ def _digest(paths: list[Path], base: Path) -> str:
     return digest.hexdigest()
 
 
+NOT_COMPOSING = ("cli", "api.py", "gym.py", "report", "commands/plot.py", "bench", "calibration", "commands/ship.py")
+"""The parts of the package that take no part in composing a job or planning its stages: the layers above the
+experiments' and its independent siblings in the layers contract (pyproject.toml, tests/repo/test_layers.py), which
+the experiments never import. A change to them leaves what was found of an archived job as it was."""
+
+
 @functools.cache
 def _package_digest() -> str:
-    """One hash of every file of the mapush package (code, configs, shipped policies) and of the versions of the
-    libraries that compose its configs."""
+    """One hash of every file of the mapush package that composing a job can read (code, configs, shipped
+    policies: all but `NOT_COMPOSING`) and of the versions of the libraries that compose its configs."""
     package = Path(__file__).resolve().parents[1]
-    files = sorted(p for p in package.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    skipped = [package / part for part in NOT_COMPOSING]
+    files = sorted(
+        p for p in package.rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts and not any(p == s or s in p.parents for s in skipped)
+    )  # fmt: skip
     return f"hydra {hydra.__version__} omegaconf {omegaconf.__version__} {_digest(files, package)}"
 
 

@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from mapush.atomic import write_json, write_text
-from mapush.experiments.archive import load_results, made_otherwise_all
+from mapush.experiments.archive import check_results, load_results
 from mapush.report import curve_findings, plots
 from mapush.report.cells import matching
 from mapush.report.cost import cost_after, cost_by, measured_cost
@@ -26,9 +26,6 @@ from mapush.report.ocb_table import ocb_table
 from mapush.report.scale_table import scale_table
 from mapush.report.team_table import team_table
 
-CHECKED = "jobs_checked.json"
-"""What the last `mapush tables` into a dir found of each archived job against its experiment then (kept there, so
-that the next finds it again without composing the job's configs while nothing it depends on changed)."""
 BUILDERS = {
     "main": main_table,
     "ocb_ablation": ocb_table,
@@ -69,7 +66,7 @@ def write_tables(
     """
     results = load_results(roots)
     out.mkdir(parents=True, exist_ok=True)
-    made_otherwise_all(results, memo=out / CHECKED)
+    check_results(results)
     variants = sorted({r.variant for r in results} | {"quick"})
     tables, kept = [], []
     for variant in variants:

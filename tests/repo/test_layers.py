@@ -64,3 +64,23 @@ def test_no_code_outside_the_level_registry_asks_which_level_it_holds():
         if pattern.search(line)
     ]
     assert found == []
+
+
+def test_what_the_archive_memo_ignores_is_what_the_experiments_cannot_import():
+    """`archive.NOT_COMPOSING` leaves out of the memo's key only modules in layers above the experiments' or beside
+    it (pyproject.toml's contract), so no change it ignores can change what a job composes; and every module the
+    experiments import is in the key."""
+    import tomllib
+
+    from mapush.experiments.archive import NOT_COMPOSING
+
+    layers = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"][0]["layers"]
+    rank = {m.strip(): k for k, layer in enumerate(layers) for m in layer.split("|")}
+    own = rank["mapush.experiments"]
+    for part in NOT_COMPOSING:
+        module = "mapush." + part.removesuffix(".py").replace("/", ".")
+        assert rank[module] <= own and module != "mapush.experiments", module
+    graph = grimp.build_graph("mapush", cache_dir=None)
+    reached = graph.find_upstream_modules("mapush.experiments", as_package=True)
+    ignored = ["mapush." + p.removesuffix(".py").replace("/", ".") for p in NOT_COMPOSING]
+    assert not [m for m in reached if any(m == i or m.startswith(i + ".") for i in ignored)]
