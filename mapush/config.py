@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import datetime
 import importlib.util
-import json
 import os
 import re
 import subprocess
@@ -20,6 +19,7 @@ from mapush.atomic import write_json, write_yaml
 from mapush.errors import BadInput, first_line
 from mapush.migrations import absent_meant, stamp, upgrade_run_config
 from mapush.provenance import provenance
+from mapush.records import read_meta
 from mapush.resolvers import register_resolvers
 from mapush.rules import rules_at_level
 from mapush.schema import check_config, task_weight_names
@@ -223,6 +223,7 @@ def lengthen_run(run_dir: Path, iterations: int, command: str, meta_from: Path |
     `meta_from`: the `meta.json` to extend (a copied run's source); `meta.json`, what makes a dir a run, is written
     last."""
     run_dir = Path(run_dir)
+    meta = read_meta(Path(meta_from or run_dir / META_FILE))  # a cut or altered one refused before any write
     before = int(OmegaConf.load(run_dir / "config.yaml").train.iterations)
     for directory in (run_dir / ".hydra", run_dir):
         if not (directory / "config.yaml").is_file():
@@ -232,7 +233,6 @@ def lengthen_run(run_dir: Path, iterations: int, command: str, meta_from: Path |
         overrides = list(OmegaConf.load(directory / "overrides.yaml"))
         write_yaml(directory / "overrides.yaml", [*overrides, f"train.iterations={int(iterations)}"])
         write_yaml(directory / "config.yaml", cfg)
-    meta = json.loads(Path(meta_from or run_dir / META_FILE).read_text())
     step = {"from_iterations": before, "to_iterations": int(iterations), "command": command}
     step |= git_state() | provenance()
     meta["lengthened"] = [*meta.get("lengthened", []), {**step, "at": datetime.datetime.now().isoformat()}]

@@ -65,8 +65,15 @@ def stamp(data: dict) -> dict:
 
 def upgrade(data: dict, what: str) -> dict:
     """A file's content (`what` names it in a message) brought to today's `FORMAT_VERSION`; BadInput for a file a
-    newer mapush wrote."""
-    version = int(data.get("format_version", 0))
+    newer mapush wrote, or one that is not a record or names no version mapush knows."""
+    if not isinstance(data, dict):
+        raise BadInput(f"{what} holds a {type(data).__name__}, not a record; valid: the file as mapush wrote it")
+    version = data.get("format_version", 0)
+    if not isinstance(version, int) or isinstance(version, bool) or version < 0:
+        raise BadInput(
+            f"{what} has format_version {version!r}, which no mapush wrote; valid: an integer from 0 to "
+            f"{FORMAT_VERSION}"
+        )
     if version > FORMAT_VERSION:
         raise BadInput(
             f"{what} has format_version {version}, newer than this mapush reads ({FORMAT_VERSION}); valid: files of "

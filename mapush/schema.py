@@ -33,6 +33,14 @@ def _count(low: int) -> Rule:
     return int, lambda v: v >= low, f"an integer >= {low}"
 
 
+SEED_MAX = 2**32 - 1
+"""The largest seed: numpy's legacy `np.random.seed` (`seed_everything`) takes 32 bits; torch's generators 64."""
+
+
+def _seed() -> Rule:
+    return int, lambda v: 0 <= v <= SEED_MAX, f"an integer in [0, {SEED_MAX}] (numpy seeds with 32 bits)"
+
+
 def _fraction(low_open: bool = False) -> Rule:
     return (
         float,
@@ -50,7 +58,7 @@ def _even_pixels() -> Rule:
 
 
 RULES: dict[str, Rule] = {
-    "seed": _count(0),
+    "seed": _seed(),
     "num_envs": _count(1),
     "train.iterations": _count(1),
     "train.rollout_threads": _count(0),
@@ -102,7 +110,7 @@ RULES: dict[str, Rule] = {
     "algo.algorithm.desired_kl": _positive("KL divergence"),
     "algo.actor.distribution_cfg.std_range": _positive("std"),  # each of [low, high]
     "eval.episodes": _count(1),
-    "eval.seeds": _count(0),
+    "eval.seeds": _seed(),
     "log.video_interval": (int, lambda v: v >= 0, "an integer >= 0 (iterations; 0 = no training videos)"),
     "log.video.width": _even_pixels(),
     "log.video.height": _even_pixels(),
@@ -113,6 +121,8 @@ RULES: dict[str, Rule] = {
 """Every checked value: key -> (type, test, what is valid); for a list, of each item."""
 NAMES = ("task.name", "level.name", "lowlevel.name")
 """Keys that name things (and so run dirs): one word each, never a path or a mapping."""
+NAME_LENGTH = 64
+"""The longest name (`NAMES`, `mapush eval --name`): a part of a file name, well inside a filesystem's 255 bytes."""
 
 
 def check_config(cfg: DictConfig | dict, task_weights: set[str] | None = None) -> None:
@@ -136,8 +146,12 @@ def check_config(cfg: DictConfig | dict, task_weights: set[str] | None = None) -
         check_task_weights(cfg, task_weights)
     for key in NAMES:
         value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
-        if value is not None and not (isinstance(value, str) and value.replace("_", "").replace("-", "").isalnum()):
-            raise BadInput(f"{key}={value!r} is not valid; valid: a name of letters, digits, - and _")
+        plain = isinstance(value, str) and value.replace("_", "").replace("-", "").isalnum()
+        if value is not None and not (plain and len(value) <= NAME_LENGTH):
+            shown = value if not plain or len(value) <= 80 else f"{value[:60]}... ({len(value)} characters)"
+            raise BadInput(
+                f"{key}={shown!r} is not valid; valid: a name of letters, digits, - and _ (1 to {NAME_LENGTH})"
+            )
     algo = OmegaConf.select(cfg, "algo", default=None)
     if algo is not None:  # as written (no interpolation may name code) and as rsl-rl will read it
         check_class_names("algo", OmegaConf.to_container(algo), resolved=False)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, number_list
+from mapush.cli.app import PASS_THROUGH, app, number_list, output_dir, output_file, seeds_of
 from mapush.errors import BadInput
 
 DRY_RUN = typer.Option(False, "--dry-run", help="Print the stages it would train and reuse; train nothing.")
@@ -87,6 +87,8 @@ def reproduce(
             f"{axes[0]}={keys[axes[0]]}: reproduce runs every experiment on its own axes; valid: other overrides "
             "(budget=, seed=, launcher=, sweep_root=, stage overrides)"
         )
+    _check_tables_out(out)
+    output_dir(out / "jobs", "--out")
     for name in REPRODUCED:  # every sweep's overrides checked before the first one trains
         sweep_overrides([f"experiment={name}", *overrides])
     codes = [_sweep([f"experiment={name}", *overrides], dry_run, stop=False) for name in REPRODUCED]
@@ -152,6 +154,7 @@ def tables(
 
     for root in runs:
         _check_runs_dir(root)
+    _check_tables_out(out)
     for name in only:
         if name not in BUILDERS:
             raise BadInput(f"--table {name!r} is not a table; valid: {', '.join(BUILDERS)}")
@@ -178,7 +181,7 @@ def archive(
     from mapush.experiments.archive import ARCHIVE, archive_results
 
     _check_runs_dir(runs)
-    out = out or ARCHIVE
+    out = output_dir(out or ARCHIVE, "--out")
     written, unchanged = archive_results(runs, out)
     print(f"{out}: {len(written)} results written, {unchanged} already archived")
 
@@ -249,6 +252,20 @@ def fingerprint(
     print(json.dumps(hashes(str(mid_run))))
 
 
+TABLE_FILES = (".md", ".tex", ".csv", ".json", ".png")
+"""What `mapush tables` writes into --out, by suffix."""
+
+
+def _check_tables_out(out: Path) -> None:
+    """BadInput unless `out` (tables' --out) is a dir or nothing, and holds no dir or symlink where a table file
+    goes: checked before the first table is written, so that none is half replaced."""
+    output_dir(out, "--out")
+    if out.is_dir():
+        for entry in sorted(out.iterdir()):
+            if entry.suffix in TABLE_FILES and (entry.is_dir() or entry.is_symlink()):
+                output_file(entry, "--out holds")
+
+
 def _check_runs_dir(runs: Path) -> None:
     """BadInput unless `runs` (a --runs value) is a directory."""
     if not runs.is_dir():
@@ -266,9 +283,11 @@ def compare(
     """Evaluate runs as trained and with overrides (e.g. lowlevel=go1: the sim-to-sim check) into one table."""
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    seed_list = number_list(seeds, "--seeds") if seeds else None
+    seed_list = seeds_of(seeds) if seeds else None
     overrides = [t for t in targets if "=" in t] + list(ctx.args)  # a variadic argument takes the overrides too
     runs = [Path(t) for t in targets if "=" not in t]
+    for suffix in (".md", ".json"):
+        output_file(out.with_suffix(suffix), "--out")
     if not runs:
         raise BadInput("mapush compare needs run dirs; valid: mapush compare RUN_DIR... key=value...")
     from mapush.rundir import resolve_checkpoint

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, groups_epilog, number_list
+from mapush.cli.app import PASS_THROUGH, app, groups_epilog, seeds_of
 from mapush.errors import BadInput
+from mapush.schema import NAME_LENGTH, SEED_MAX
 
 CFG_PARTS = ("job", "hydra", "all")
 """What `--cfg` prints, as Hydra apps do: the composed config, Hydra's own node, or both."""
@@ -113,11 +114,12 @@ def evaluate(
         from mapush.viz.preflight import require_offscreen_gl
 
         require_offscreen_gl()
-    seed_list = number_list(seeds, "--seeds") if seeds else None
+    seed_list = seeds_of(seeds) if seeds else None
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    if name and not name.replace("-", "").replace("_", "").isalnum():
-        raise BadInput(f"--name {name!r} is not a plain name; valid: letters, digits, '-' and '_'")
+    if name and not (name.replace("-", "").replace("_", "").isalnum() and len(name) <= NAME_LENGTH):
+        shown = name if len(name) <= 80 else f"{name[:60]}... ({len(name)} characters)"
+        raise BadInput(f"--name {shown!r} is not a plain name; valid: 1 to {NAME_LENGTH} letters, digits, '-' and '_'")
     from mapush.rundir import resolve_checkpoint
 
     run_dir, _ = resolve_checkpoint(target)  # a missing run is told before the simulator and PyTorch load
@@ -156,8 +158,8 @@ def play(
     """Watch the policy push in MuJoCo's native viewer (needs a display), episode after episode, in real time."""
     from mapush.viz.preflight import require_display
 
-    if seed < 0:
-        raise BadInput(f"--seed {seed} is not valid; valid: an integer >= 0")
+    if not 0 <= seed <= SEED_MAX:
+        raise BadInput(f"--seed {seed} is not valid; valid: an integer in [0, {SEED_MAX}]")
     require_display()
     from mapush.eval.play import play as run_play
 
@@ -176,4 +178,4 @@ def ship(
 
     if episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    print(write_shipped(run, out, episodes, number_list(seeds, "--seeds")))
+    print(write_shipped(run, out, episodes, seeds_of(seeds)))

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, number_list
+from mapush.cli.app import PASS_THROUGH, app, number_list, output_dir, output_file
 from mapush.errors import BadInput
 
 
@@ -34,7 +34,10 @@ def bench(
     import json
     import sys
 
+    if json_path:
+        output_file(json_path, "--json")
     if video:
+        output_file(out, "--out")
         if learn:
             raise BadInput("--video and --learn measure different things; valid: one of them")
         if frames < 1:
@@ -82,6 +85,9 @@ def plan(
 
     if maps < 1:
         raise BadInput(f"--maps {maps} must be 1 or more")
+    for path, flag in ((json_path, "--json"), (png, "--png")):
+        if path is not None:
+            output_file(path, flag)
     cfg = to_plain(compose_config(["level=high", f"task={task}", f"seed={seed}", *ctx.args]))
     planner = make_planner(cfg)
     try:
@@ -144,7 +150,7 @@ def calibrate(
     overrides = list(ctx.args)
     reference = overrides if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
     stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
-    out_dir = out or Path("runs") / "calibrate" / stamp
+    out_dir = output_dir(out or Path("runs") / "calibrate" / stamp, "--out")
     if config is not None and not config.is_file():
         raise BadInput(f"--config {config}: no such file; valid: a tracker config (e.g. {default_config_path()})")
     if config is None:  # the package's own config stays as it is: the measured copy goes beside the record
@@ -177,7 +183,7 @@ def plot(
 
     if out is None:
         out = run_dirs[0] / "curves.png" if len(run_dirs) == 1 else Path("curves.png")
-    print(plot_runs(run_dirs, out, smooth))
+    print(plot_runs(run_dirs, output_file(out, "-o"), smooth))
 
 
 @app.command(name="list")

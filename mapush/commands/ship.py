@@ -9,7 +9,6 @@ written beside the policy is of the shipped files, not of the source run.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import shutil
@@ -22,6 +21,7 @@ from mapush.atomic import write_json, write_yaml
 from mapush.config import load_run_config
 from mapush.errors import BadInput
 from mapush.eval.rollout import evaluate
+from mapush.records import read_json
 from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import load_policy, read_checkpoint
 from mapush.rundir import ONNX_FILE, POLICY_FILE, checkpoints
@@ -78,7 +78,8 @@ def _overlap(a: Path, b: Path) -> bool:
 
 def _is_shipped(path: Path) -> bool:
     """Whether `path` holds an earlier `mapush ship` (which shipping again replaces)."""
-    return any("shipped_from" in json.loads(m.read_text()) for m in path.glob("**/meta.json"))
+    meta = (read_json(m) for m in path.glob("**/meta.json"))  # a cut one: one line naming it
+    return any(isinstance(m, dict) and "shipped_from" in m for m in meta)
 
 
 def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
@@ -97,7 +98,7 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     policy = load_policy(dest)  # the exports are of the shipped checkpoint
     export_onnx(policy.actor, policy.obs_dim, dest / ONNX_FILE)
     export_torchscript(policy.actor, dest / POLICY_FILE)
-    meta = json.loads((dest / "meta.json").read_text())
+    meta = read_json(dest / "meta.json", run_dir / "meta.json")
     meta["command"] = without_machine_paths(meta.get("command", ""))
     meta["shipped_from"] = {"run": run_dir.name, "checkpoint": last.name}
     write_json(dest / "meta.json", meta)

@@ -11,12 +11,13 @@ from pathlib import Path
 from omegaconf import DictConfig
 
 from mapush.atomic import remove_leftovers
-from mapush.config import lengthen_run, load_run_config, new_run_dir, save_run_config, to_plain
+from mapush.config import META_FILE, lengthen_run, load_run_config, new_run_dir, save_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.levels import build, checked, load_into, scene_layout
 from mapush.logging.episodes import EpisodeRecorder
 from mapush.logging.mcap_files import exit_on_sigterm, repair_in_place
 from mapush.logging.metrics import next_free_path
+from mapush.records import read_meta
 from mapush.rl.runner import export_policy, learn
 from mapush.rundir import ONNX_FILE, POLICY_FILE, checkpoint_iteration, checkpoints
 from mapush.schema import check_config
@@ -68,6 +69,8 @@ def resume(run_dir: Path, iterations: int | None, nthread: int | None = None, co
     removed, as it no longer holds the run's last iteration."""
     cfg = load_run_config(run_dir)
     longer = iterations is not None and iterations > int(cfg.train.iterations)
+    if longer:  # lengthening rewrites meta.json: one cut or altered is refused before the run is touched
+        read_meta(Path(run_dir) / META_FILE)
     if iterations is not None:
         cfg.train.iterations = iterations
     if nthread is not None:

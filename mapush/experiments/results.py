@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -14,6 +13,7 @@ from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.migrations import stamp, upgrade
+from mapush.records import ANY, INTEGER, NUMBER, TEXT, Fields, ListOf, MapOf, Nullable, check_fields, read_json
 
 RESULT = "result.json"
 """A finished job's record, written by `run_job`, read by `read_result`."""
@@ -23,6 +23,48 @@ SUPERSEDED = "result.superseded.json"
 
 ARCHIVED_FROM = "archived_from"
 """The field of an archived result that names the job dir it was copied from (`mapush archive`)."""
+
+
+POINT = Fields({"iteration": INTEGER, "env_steps": NUMBER, "success_rate": NUMBER}, ("env_steps", "success_rate"))
+RULE = Fields({"tail": NUMBER, "max_gain": NUMBER}, ("tail", "max_gain"))
+CURVE = Fields(
+    {"eval": TEXT, "every_env_steps": NUMBER, "reach": NUMBER, "rule": RULE, "points": ListOf((POINT,))},
+    ("points",),
+)
+EVAL = Fields(
+    {
+        **dict.fromkeys(("success_rate", "completion_time", "completion_time_s", "timeout_s", "path_length_m"), NUMBER),
+        **dict.fromkeys(("success_rate_std", "completion_time_std"), NUMBER),
+        "exceptions": MapOf((NUMBER,)),
+        "episodes": INTEGER,
+        "seeds": ListOf((INTEGER,)),
+        "checkpoint": TEXT,
+        "overrides": ListOf((TEXT,)),
+    },
+    ("success_rate",),
+)
+RECORD = Fields(
+    {
+        **dict.fromkeys(
+            ("experiment", "table", "budget", "variant", "method", "method_label", "task", "finished"), TEXT
+        ),
+        **dict.fromkeys(("supersedes", "archived_from", "taken_from"), Nullable((TEXT,))),
+        "overrides": ListOf((TEXT,)),
+        "num_agents": INTEGER,
+        "seed": INTEGER,
+        "stages": MapOf((TEXT,)),
+        "stage_core_s": MapOf((NUMBER,)),
+        "evals": MapOf((EVAL,)),
+        "curve": Nullable((CURVE,)),
+        "stage_curves": Nullable((MapOf((Nullable((CURVE,)),)),)),
+        "eval_wall_s": Nullable((NUMBER,)),
+        **dict.fromkeys(("threads", "machine_cores"), Nullable((INTEGER,))),
+        "format_version": ANY,
+    }
+)
+"""What the tables read of a result (`read_result`): each field's type, numbers finite, a curve's points (and its
+rule whole, where given) and an evaluation's success rate present (another metric it lacks leaves its cell empty);
+a field of another type is one line naming the file and the field."""
 
 
 @dataclass(frozen=True)
@@ -127,9 +169,12 @@ class JobResult:
 
 
 def read_result(path: Path) -> JobResult:
-    """A job's `result.json` (or the result it superseded) in today's form (`migrations.upgrade`), with its job dir."""
+    """A job's `result.json` (or the result it superseded) in today's form (`migrations.upgrade`), with its job dir;
+    BadInput naming the file for one cut, altered or of a field of another type (`RECORD`)."""
     path = Path(path)
-    return JobResult.from_record(upgrade(json.loads(path.read_text()), str(path)), path.parent)
+    record = upgrade(read_json(path), str(path))
+    check_fields(record, RECORD, str(path))
+    return JobResult.from_record(record, path.parent)
 
 
 def write_result(path: Path, result: JobResult) -> JobResult:

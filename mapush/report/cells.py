@@ -34,7 +34,7 @@ def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cel
     eval_name = match.pop("eval")
     return _gathered(
         matching(results, **match),
-        lambda r: r.evals[eval_name][metric] if eval_name in r.evals else None,
+        lambda r: r.evals[eval_name].get(metric) if eval_name in r.evals else None,  # a record may lack it
         lambda r, change: change.concerns(r, eval_name),
         scale,
     )
