@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import functools
 import json
 import os
 import socket
@@ -52,25 +51,6 @@ def write_text(target: Path, text: str) -> Path:
 def write_json(target: Path, data) -> Path:
     """`data` as indented JSON with a final newline, atomically."""
     return write_text(target, json.dumps(data, indent=2) + "\n")
-
-
-def read_yaml(source: Path):
-    """A YAML file as plain Python containers, read as `OmegaConf.load` reads it (its float rule: `1e-3` is a
-    float), with libyaml's C parser where it is built: stage records are read by the hundred."""
-    import yaml
-
-    return yaml.load(Path(source).read_text(), Loader=_yaml_loader())
-
-
-@functools.cache
-def _yaml_loader():
-    import yaml
-    from omegaconf._utils import get_yaml_loader
-
-    fast = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    loader = type("PlainLoader", (fast,), {})
-    loader.yaml_implicit_resolvers = get_yaml_loader().yaml_implicit_resolvers  # OmegaConf's, floats included
-    return loader
 
 
 def write_yaml(target: Path, cfg, resolve: bool = False) -> Path:

@@ -23,6 +23,7 @@ from mapush.records import read_meta
 from mapush.resolvers import register_resolvers
 from mapush.rules import rules_at_level
 from mapush.schema import check_config, task_weight_names
+from mapush.untrusted import load_yaml, refuse_links_out
 
 CONF_DIR = Path(os.environ.get("MAPUSH_CONF_DIR", Path(__file__).resolve().parent / "conf"))
 """The `mapush/conf/` tree: package data, so a checkout, an editable install and a wheel all compose alike."""
@@ -224,13 +225,13 @@ def lengthen_run(run_dir: Path, iterations: int, command: str, meta_from: Path |
     last."""
     run_dir = Path(run_dir)
     meta = read_meta(Path(meta_from or run_dir / META_FILE))  # a cut or altered one refused before any write
-    before = int(OmegaConf.load(run_dir / "config.yaml").train.iterations)
+    before = int(load_yaml(run_dir / "config.yaml").train.iterations)
     for directory in (run_dir / ".hydra", run_dir):
         if not (directory / "config.yaml").is_file():
             continue
-        cfg = OmegaConf.load(directory / "config.yaml")
+        cfg = load_yaml(directory / "config.yaml")
         cfg.train.iterations = int(iterations)
-        overrides = list(OmegaConf.load(directory / "overrides.yaml"))
+        overrides = list(load_yaml(directory / "overrides.yaml"))
         write_yaml(directory / "overrides.yaml", [*overrides, f"train.iterations={int(iterations)}"])
         write_yaml(directory / "config.yaml", cfg)
     step = {"from_iterations": before, "to_iterations": int(iterations), "command": command}
@@ -249,10 +250,13 @@ def load_run_config(run_dir: Path) -> DictConfig:
     path = Path(run_dir) / "config.yaml"
     if not Path(run_dir).is_dir() or not path.is_file():
         raise BadInput(f"{str(run_dir)!r} is not a run dir (no config.yaml); valid: a dir that `mapush train` made")
+    refuse_links_out(Path(run_dir))  # its config, checkpoints and logs are its own, not a link's target
     root = OmegaConf.load(CONF_DIR / "config.yaml")
     root.pop("defaults")
     try:
-        run = OmegaConf.load(path)
+        run = load_yaml(path)
+    except BadInput:
+        raise
     except Exception as err:  # YAML's and OmegaConf's parse errors have many types
         first = first_line(err)
         raise BadInput(

@@ -2,10 +2,11 @@
 success rates on this machine.
 
 The benchmark runs the real `mapush train` as a child process for a fixed wall time, checkpointing every
-`bench.learn.save_interval` iterations, then stops it (SIGTERM: logs close, checkpoints are atomic). A
-checkpoint's time is its file's write time since the launch, so start-up counts as a user would count it. After
-training, the last checkpoint before every `bench.learn.eval_every_min` mark is evaluated as `mapush eval` does
-(deterministic first episodes, `eval.episodes` trials x `eval.seeds`), on the otherwise idle machine.
+`bench.learn.save_interval` iterations, then stops it (SIGTERM: logs close, checkpoints are atomic); a killed
+benchmark takes it along (`mapush.children`). A checkpoint's time is its file's write time since the launch, so
+start-up counts as a user would count it. After training, the last checkpoint before every
+`bench.learn.eval_every_min` mark is evaluated as `mapush eval` does (deterministic first episodes,
+`eval.episodes` trials x `eval.seeds`), on the otherwise idle machine.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig
 
+from mapush.children import dies_with_parent
 from mapush.config import load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curve_points import first_reaching
@@ -36,7 +38,7 @@ def train_for(overrides: list[str], minutes: float, save_interval: int, run_root
         "train.progress=false", "algo.keep_checkpoints=0",  # every checkpoint: the time marks pick among them
     ]  # fmt: skip
     launched = time.time()
-    child = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, text=True, preexec_fn=dies_with_parent())
     run_dir = Path(child.stdout.readline().strip())
     try:
         child.wait(timeout=minutes * 60 - (time.time() - launched))

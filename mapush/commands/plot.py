@@ -16,7 +16,8 @@ from omegaconf import OmegaConf
 from mapush.atomic import replacing
 from mapush.config import load_run_config
 from mapush.errors import BadInput
-from mapush.logging.mcap_files import training_scalars
+from mapush.logging.mcap_files import is_complete, training_scalars
+from mapush.untrusted import load_yaml
 
 FIXED_PANELS = ("Metrics/success_rate", "Train/mean_reward")
 IGNORED_OVERRIDES = ("seed=", "train.run_root=", "train.progress=")
@@ -31,7 +32,7 @@ def _group_key(cfg) -> str:
 
 def _label(run_dir: Path, cfg) -> str:
     path = run_dir / "overrides.yaml"
-    overrides = [str(o) for o in OmegaConf.load(path)] if path.is_file() else []
+    overrides = [str(o) for o in load_yaml(path)] if path.is_file() else []
     kept = [o for o in overrides if not o.startswith(IGNORED_OVERRIDES)]
     return " ".join(kept) if kept else f"{cfg.level.name} / {cfg.task.name}"
 
@@ -49,6 +50,18 @@ def group_runs(run_dirs: list[Path]) -> dict[str, list[Path]]:
             groups[labels[key]] = []
         groups[labels[key]].append(run_dir)
     return groups
+
+
+def _no_scalars(run_dirs: list[Path]) -> str:
+    """Why no curve can be drawn: a metrics file cut before its first complete iteration (or empty), or runs that
+    logged no iteration."""
+    cut = [p for run in run_dirs for p in sorted(Path(run).glob("metrics*.mcap")) if not is_complete(p)]
+    if cut:
+        return (
+            f"{str(cut[0])!r} is cut or empty: it holds no complete iteration (`mapush logs recover {cut[0]} -o FILE` "
+            "copies what it holds); valid: a run with a logged iteration"
+        )
+    return f"no success or reward scalars in {', '.join(map(str, run_dirs))}; valid: runs that logged an iteration"
 
 
 def mean_std(series: list[dict[int, float]], smooth: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -76,7 +89,7 @@ def plot_runs(run_dirs: list[Path], out: Path, smooth: int = 5) -> Path:
     terms = sorted({tag for s in scalars.values() for tag in s if tag.startswith("Reward/")})
     panels = [tag for tag in FIXED_PANELS if any(tag in s for s in scalars.values())] + terms
     if not panels:
-        raise BadInput(f"no success or reward scalars in {', '.join(map(str, run_dirs))}; train longer than 0 steps")
+        raise BadInput(_no_scalars(run_dirs))
     cols = min(3, len(panels))
     rows = -(-len(panels) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.8 * cols, 3.3 * rows), squeeze=False)

@@ -2,8 +2,9 @@
 
 A slim run dir holds what loading and evaluating a policy needs: `config.yaml`, `overrides.yaml`, `meta.json`
 (with `shipped_from`), the last checkpoint with the actor alone (no critic or optimizer: kB instead of MB), and
-its `policy.pt` and `policy.onnx`. A high level ships with its frozen mid level beside it (`<out>/mid`,
-`<out>/high`, the high config's `mid: ../mid`), so the whole hierarchy evaluates out of the box. The `eval.json`
+its `policy.pt` and `policy.onnx`, with their digests (`sha256.json`). A high level ships with its frozen mid
+level beside it (`<out>/mid`, `<out>/high`, the high config's `mid: ../mid`), so the whole hierarchy evaluates out
+of the box. The `eval.json`
 written beside the policy is of the shipped files, not of the source run.
 """
 
@@ -15,16 +16,17 @@ import shutil
 from pathlib import Path
 
 import torch
-from omegaconf import OmegaConf
 
 from mapush.atomic import write_json, write_yaml
 from mapush.config import load_run_config
+from mapush.digests import record_weights
 from mapush.errors import BadInput
 from mapush.eval.rollout import evaluate
 from mapush.records import read_json
 from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import load_policy, read_checkpoint
 from mapush.rundir import ONNX_FILE, POLICY_FILE, checkpoints
+from mapush.untrusted import load_yaml
 
 RUN_FILES = ("config.yaml", "overrides.yaml", "meta.json")
 MID_DIR = "mid"
@@ -89,7 +91,7 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     for name in RUN_FILES:
         shutil.copy2(run_dir / name, dest / name)
     if mid is not None:
-        cfg = OmegaConf.load(dest / "config.yaml")
+        cfg = load_yaml(dest / "config.yaml")
         cfg.mid = mid
         write_yaml(dest / "config.yaml", cfg)
     last = checkpoints(run_dir)[-1]
@@ -98,6 +100,7 @@ def write_slim(run_dir: Path, dest: Path, mid: str | None = None) -> None:
     policy = load_policy(dest)  # the exports are of the shipped checkpoint
     export_onnx(policy.actor, policy.obs_dim, dest / ONNX_FILE)
     export_torchscript(policy.actor, dest / POLICY_FILE)
+    record_weights(dest)  # an altered shipped file is refused, not evaluated to 0 % (`mapush.digests`)
     meta = read_json(dest / "meta.json", run_dir / "meta.json")
     meta["command"] = without_machine_paths(meta.get("command", ""))
     meta["shipped_from"] = {"run": run_dir.name, "checkpoint": last.name}

@@ -21,6 +21,7 @@ from mapush.records import read_meta
 from mapush.rl.runner import export_policy, learn
 from mapush.rundir import ONNX_FILE, POLICY_FILE, checkpoint_iteration, checkpoints
 from mapush.schema import check_config
+from mapush.untrusted import run_lock
 from mapush.viz.video import attach_training_video
 
 TRAIN_EPISODES = "train_episodes.mcap"
@@ -33,9 +34,10 @@ def train(cfg: DictConfig, overrides: list[str], command: str) -> Path:
     existed = bool(chosen) and Path(chosen).exists()
     run_dir = new_run_dir(cfg)
     try:
-        save_run_config(run_dir, cfg, overrides, command)
-        print(run_dir, flush=True)
-        _run(plain, run_dir)
+        with run_lock(run_dir, training=True):  # a resume of this run while it trains is refused
+            save_run_config(run_dir, cfg, overrides, command)
+            print(run_dir, flush=True)
+            _run(plain, run_dir)
     except (BadInput, OSError):  # refused (too many envs) or a full disk before any checkpoint: nothing half-made
         if not checkpoints(run_dir):
             _unmake(run_dir, existed, Path(cfg.train.run_root))
@@ -66,7 +68,15 @@ def resume(run_dir: Path, iterations: int | None, nthread: int | None = None, co
 
     More iterations than the run was made for lengthen it: recorded in the run before it trains on (`lengthen_run`,
     `command` saying by what, once its config is built without refusal), and a finished run's exported policy
-    removed, as it no longer holds the run's last iteration."""
+    removed, as it no longer holds the run's last iteration.
+
+    A run that another process trains is refused at once (`run_lock`): two trainers would write over each other."""
+    load_run_config(run_dir)  # a run dir, with no link out of it, before its lock file is made
+    with run_lock(Path(run_dir), training=True):
+        return _resume(Path(run_dir), iterations, nthread, command)
+
+
+def _resume(run_dir: Path, iterations: int | None, nthread: int | None, command: str) -> Path:
     cfg = load_run_config(run_dir)
     longer = iterations is not None and iterations > int(cfg.train.iterations)
     if longer:  # lengthening rewrites meta.json: one cut or altered is refused before the run is touched

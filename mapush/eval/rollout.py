@@ -27,6 +27,7 @@ from mapush.planning.paths import length as path_length
 from mapush.provenance import provenance
 from mapush.rewards.manager import RewardManager
 from mapush.rundir import PACKAGE, resolve_checkpoint
+from mapush.untrusted import run_lock
 from mapush.viz.video import eval_video_path, eval_video_recorder
 
 EPISODES = "episodes.mcap"
@@ -163,7 +164,8 @@ def evaluate(
     out_dir.mkdir(parents=True, exist_ok=True)
     out = out_dir / f"eval{_suffix(name)}.json"
     try:
-        with locked(out_dir):  # a second evaluation into this dir waits: its files are never written twice at once
+        # a run being trained is refused at once; a second evaluation into this dir waits: no file written twice
+        with run_lock(out_dir, training=False), locked(out_dir):
             remove_leftovers(out_dir)  # temp files of evaluations that were killed
             per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
             write_json(out, summarize(cfg, str(checkpoint), episodes, seeds, per_seed) | provenance())

@@ -22,6 +22,7 @@ from mapush.config import load_run_config, to_plain
 from mapush.experiments import stages
 from mapush.experiments.sweep_axes import planned_jobs, sweep_overrides
 from mapush.rundir import find_runs
+from mapush.untrusted import load_yaml
 
 RUN_CONFIG = "config.yaml"
 
@@ -54,7 +55,7 @@ def adopt(runs: list[Path], overrides: list[str]) -> dict[Path, Path]:
                 level, task = stage.cfg["level"]["name"], stage.cfg["task"]["name"]
                 target = directory / level / task / run.name
                 stages.copy_run(run, target)
-                config = OmegaConf.load(run / RUN_CONFIG)
+                config = load_yaml(run / RUN_CONFIG)
                 if config.get("mid"):  # the frozen mid level: the adopted copy of the run it named
                     config.mid = str(adopted[Path(config.mid).resolve()])
                     OmegaConf.save(config, target / RUN_CONFIG)

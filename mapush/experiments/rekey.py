@@ -29,6 +29,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from mapush.children import dies_with_parent
 from mapush.experiments import stages
 from mapush.experiments.sweep import dry_run
 from mapush.experiments.sweep_axes import planned_jobs, sweep_overrides
@@ -50,7 +51,9 @@ class CheckoutFailed(Exception):
 def at_checkout(checkout: Path, args: list[str]) -> str:
     """Run python with `args` on the mapush of `checkout`; its stdout."""
     env = {**os.environ, "PYTHONPATH": str(checkout)}
-    done = subprocess.run([sys.executable, *args], cwd=checkout, env=env, capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, *args], cwd=checkout, env=env, capture_output=True, text=True, preexec_fn=dies_with_parent()
+    )
     if done.returncode:
         raise CheckoutFailed(f"{checkout}: {' '.join(args)} failed:\n{done.stderr[-2000:]}")
     return done.stdout

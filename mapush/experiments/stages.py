@@ -26,11 +26,12 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from mapush.atomic import read_yaml, write_yaml
+from mapush.atomic import write_yaml
 from mapush.config import compose_config, env_steps_per_iteration, load_run_config, sim_threads, to_plain
 from mapush.logging.mcap_files import CPU_TAG, THREADS_TAG, training_scalars
 from mapush.migrations import UNSET_LATER_KEYS, stamp, upgrade
 from mapush.rundir import POLICY_FILE, checkpoint_iteration, checkpoints, find_runs
+from mapush.untrusted import read_yaml
 
 STORE = "stages"
 """The store's folder under `sweep_root`."""

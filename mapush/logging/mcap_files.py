@@ -57,7 +57,7 @@ def stream_records(path: Path) -> Contents:
     found = Contents({}, {}, [], [], [], complete=False)
     with open(path, "rb") as f:
         try:
-            for record in StreamReader(f, record_size_limit=1 << 31).records:
+            for record in StreamReader(f, validate_crcs=True, record_size_limit=1 << 31).records:  # a torn chunk: cut
                 if isinstance(record, Schema):
                     found.schemas[record.id] = record
                 elif isinstance(record, Channel):
@@ -154,7 +154,11 @@ def iter_json(path: Path, topic_prefix: str = "") -> Iterator[tuple[str, int, di
     for message in contents.messages:
         channel = contents.channels.get(message.channel_id)
         if channel and channel.message_encoding == "json" and channel.topic.startswith(topic_prefix):
-            yield channel.topic, message.log_time, json.loads(message.data)
+            try:
+                data = json.loads(message.data)
+            except ValueError:  # torn inside a message: what came before it is what is complete
+                return
+            yield channel.topic, message.log_time, data
 
 
 def _part_number(path: Path) -> int:

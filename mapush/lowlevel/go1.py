@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 import torch
 
+from mapush.digests import verify
 from mapush.errors import BadInput, first_line
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1_model import go1_spec
@@ -107,6 +108,7 @@ def locomotion_policy_file(path: str | Path | None) -> Path:
 def load_locomotion_policy(path: str | Path | None):
     """The TorchScript locomotion policy at `path` (None: the shipped one); BadInput when there is none."""
     target = locomotion_policy_file(path)
+    verify(target)  # altered since exported or shipped: refused, not walked badly
     try:
         policy = torch.jit.load(str(target), map_location="cpu")
     except (RuntimeError, ValueError) as err:  # not a TorchScript archive

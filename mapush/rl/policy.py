@@ -16,6 +16,7 @@ from rsl_rl.utils import resolve_class
 from tensordict import TensorDict
 
 from mapush.config import load_run_config, to_plain
+from mapush.digests import verify
 from mapush.errors import BadInput
 from mapush.rundir import resolve_checkpoint
 from mapush.trust import check_class_names
@@ -33,7 +34,9 @@ class Policy(NamedTuple):
 
 
 def read_checkpoint(path: Path) -> dict:
-    """A checkpoint's tensors, loaded as weights only; BadInput for anything else (it could run code)."""
+    """A checkpoint's tensors, loaded as weights only; BadInput for anything else (it could run code), or for a
+    shipped checkpoint altered since it was shipped (`mapush.digests`)."""
+    verify(path)
     try:
         return torch.load(path, weights_only=True, map_location="cpu")
     except pickle.UnpicklingError:

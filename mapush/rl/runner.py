@@ -12,12 +12,14 @@ from rsl_rl.runners import OnPolicyRunner
 
 from mapush.atomic import replacing
 from mapush.config import sim_threads
+from mapush.digests import forget, record
 from mapush.errors import BadInput
 from mapush.logging.metrics import IterationLogger, McapLogWriter
 from mapush.rl.export import export_onnx, export_torchscript
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.retention import SCORE_KEY, SUCCESS_TAG, Retention
 from mapush.rundir import ONNX_FILE, POLICY_FILE
+from mapush.untrusted import open_own
 
 
 class MapushRunner(OnPolicyRunner):
@@ -131,7 +133,7 @@ def learn(runner: MapushRunner, iterations: int, log_path: Path, spread_episodes
     """
     runner.first_iteration, runner.updates_done = runner.current_learning_iteration, 0
     try:
-        with open(log_path, "a") as log, contextlib.redirect_stdout(log):
+        with open_own(log_path, "a") as log, contextlib.redirect_stdout(log):  # no symlink out of the run
             runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=spread_episodes)
     finally:
         runner.logger.stop_logging_writer()
@@ -141,5 +143,8 @@ def export_policy(runner: OnPolicyRunner, run_dir: Path) -> Path:
     """Export the deterministic actor (with its observation normalizer) to ONNX, then to TorchScript: `policy.pt`
     marks a finished run, so it comes last."""
     policy = runner.alg.get_policy()
+    forget(run_dir, [ONNX_FILE, POLICY_FILE])  # a cut export leaves files without digests, never wrong ones
     export_onnx(policy.as_onnx(verbose=False), policy.obs_dim, Path(run_dir) / ONNX_FILE)
-    return export_torchscript(policy.as_jit(), Path(run_dir) / POLICY_FILE)
+    path = export_torchscript(policy.as_jit(), Path(run_dir) / POLICY_FILE)
+    record(run_dir, [ONNX_FILE, POLICY_FILE])  # loading them checks them (`mapush.digests`)
+    return path

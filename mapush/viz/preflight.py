@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 
+from mapush.children import dies_with_parent
 from mapush.errors import BadInput
 from mapush.schema import check_config
 
@@ -57,6 +58,7 @@ def _renders_in_child(backend: str) -> bool:
             capture_output=True,
             timeout=PROBE_TIMEOUT_S,
             check=False,
+            preexec_fn=dies_with_parent(),
         )
     except subprocess.TimeoutExpired:
         return False
