@@ -520,7 +520,8 @@ def test_a_job_another_sweep_made_already_is_its_twin_until_an_evaluation_or_cur
         return archive.job_made_already(scale, job, planned_stages(scale))
 
     found, evals, curve = twin(made)
-    assert Path(found.job_dir) == donor.parent and sorted(evals) == ["main"]  # the study asks for no legged eval
+    assert Path(found.job_dir) == donor.parent and sorted(evals) == sorted(scale.experiment.evals)
+    assert "path_only" not in evals  # what the study asks for, not all the main job made
     assert curve["eval"] == "main" and curve["rule"] == OmegaConf.to_container(scale.experiment.budget_rule)
     assert twin({**made, "stage_curves": None}) is None  # the study asks for the mid level's own curve
     assert twin({**made, "curve": None}) is None
