@@ -13,7 +13,7 @@ from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.migrations import stamp, upgrade
-from mapush.records import ANY, INTEGER, NUMBER, TEXT, Fields, ListOf, MapOf, Nullable, check_fields, read_json
+from mapush.records import check_schema, read_json
 
 RESULT = "result.json"
 """A finished job's record, written by `run_job`, read by `read_result`."""
@@ -25,46 +25,62 @@ ARCHIVED_FROM = "archived_from"
 """The field of an archived result that names the job dir it was copied from (`mapush archive`)."""
 
 
-POINT = Fields({"iteration": INTEGER, "env_steps": NUMBER, "success_rate": NUMBER}, ("env_steps", "success_rate"))
-RULE = Fields({"tail": NUMBER, "max_gain": NUMBER}, ("tail", "max_gain"))
-CURVE = Fields(
-    {"eval": TEXT, "every_env_steps": NUMBER, "reach": NUMBER, "rule": RULE, "points": ListOf((POINT,))},
+NUMBER, INTEGER, TEXT = {"type": "number"}, {"type": "integer"}, {"type": "string"}
+
+
+def _nullable(schema: dict) -> dict:
+    """`schema`, or null (the keywords of an object's schema apply to objects only)."""
+    return {**schema, "type": ["null", schema["type"]]}
+
+
+def _record(properties: dict, required: tuple[str, ...] = ()) -> dict:
+    return {"type": "object", "properties": properties, "required": list(required)}
+
+
+POINT = _record({"iteration": INTEGER, "env_steps": NUMBER, "success_rate": NUMBER}, ("env_steps", "success_rate"))
+CURVE = _record(
+    {
+        **{"eval": TEXT, "every_env_steps": NUMBER, "reach": NUMBER},
+        "rule": _record({"tail": NUMBER, "max_gain": NUMBER}, ("tail", "max_gain")),
+        "points": {"type": "array", "items": POINT},
+    },
     ("points",),
 )
-EVAL = Fields(
+EVENT = _record({"episode_share": NUMBER, "per_episode": NUMBER}, ("episode_share",))
+EVAL = _record(
     {
         **dict.fromkeys(("success_rate", "completion_time", "completion_time_s", "timeout_s", "path_length_m"), NUMBER),
         **dict.fromkeys(("success_rate_std", "completion_time_std"), NUMBER),
-        "exceptions": MapOf((NUMBER,)),
+        "exceptions": {"type": "object", "additionalProperties": NUMBER},
+        "events": {"type": "object", "additionalProperties": EVENT},
         "episodes": INTEGER,
-        "seeds": ListOf((INTEGER,)),
+        "seeds": {"type": "array", "items": INTEGER},
         "checkpoint": TEXT,
-        "overrides": ListOf((TEXT,)),
+        "overrides": {"type": "array", "items": TEXT},
     },
     ("success_rate",),
 )
-RECORD = Fields(
+RECORD = _record(
     {
-        **dict.fromkeys(
-            ("experiment", "table", "budget", "variant", "method", "method_label", "task", "finished"), TEXT
-        ),
-        **dict.fromkeys(("supersedes", "archived_from", "taken_from"), Nullable((TEXT,))),
-        "overrides": ListOf((TEXT,)),
+        **dict.fromkeys(("experiment", "table", "budget", "variant", "method", "method_label", "task"), TEXT),
+        "finished": TEXT,
+        **dict.fromkeys(("supersedes", "archived_from", "taken_from"), _nullable(TEXT)),
+        "overrides": {"type": "array", "items": TEXT},
         "num_agents": INTEGER,
         "seed": INTEGER,
-        "stages": MapOf((TEXT,)),
-        "stage_core_s": MapOf((NUMBER,)),
-        "evals": MapOf((EVAL,)),
-        "curve": Nullable((CURVE,)),
-        "stage_curves": Nullable((MapOf((Nullable((CURVE,)),)),)),
-        "eval_wall_s": Nullable((NUMBER,)),
-        **dict.fromkeys(("threads", "machine_cores"), Nullable((INTEGER,))),
-        "format_version": ANY,
+        "stages": {"type": "object", "additionalProperties": TEXT},
+        "stage_core_s": {"type": "object", "additionalProperties": NUMBER},
+        "evals": {"type": "object", "additionalProperties": EVAL},
+        "curve": _nullable(CURVE),
+        "stage_curves": _nullable({"type": "object", "additionalProperties": _nullable(CURVE)}),
+        "eval_wall_s": _nullable(NUMBER),
+        **dict.fromkeys(("threads", "machine_cores"), _nullable(INTEGER)),
     }
 )
-"""What the tables read of a result (`read_result`): each field's type, numbers finite, a curve's points (and its
-rule whole, where given) and an evaluation's success rate present (another metric it lacks leaves its cell empty);
-a field of another type is one line naming the file and the field."""
+"""What the tables read of a result (`read_result`), as JSON Schema: each field's type (its numbers are finite:
+`read_json` refuses the others), a curve's points (and its rule whole, where given) and an evaluation's success rate
+present (another metric it lacks leaves its cell empty); a field of another type is one line naming the file and
+the field."""
 
 
 @dataclass(frozen=True)
@@ -173,7 +189,7 @@ def read_result(path: Path) -> JobResult:
     BadInput naming the file for one cut, altered or of a field of another type (`RECORD`)."""
     path = Path(path)
     record = upgrade(read_json(path), str(path))
-    check_fields(record, RECORD, str(path))
+    check_schema(record, RECORD, str(path))
     return JobResult.from_record(record, path.parent)
 
 
