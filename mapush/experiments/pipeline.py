@@ -147,7 +147,7 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
     result = _job_result(
         cfg,
         job_dir,
-        num_agents=int(load_run_config(evaluated).task.num_agents),
+        **trained_under(load_run_config(evaluated)),
         stages={name: str(path) for name, path in runs.items()},  # in the shared store: maybe another job's
         stage_core_s=recorded_stage_seconds(runs),
         evals=evals,
@@ -159,6 +159,15 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
         supersedes=None if earlier is None else SUPERSEDED,  # its evaluations are kept where they hold
     )
     return write_result(done, result)
+
+
+def trained_under(run: DictConfig) -> dict:
+    """What a job's result records of the setup its evaluated stage was trained in: robots, rules, low level."""
+    return {
+        "num_agents": int(run.task.num_agents),
+        "rules": str(OmegaConf.select(run, "level.rules", default=None) or "strict"),  # runs before rules: strict
+        "lowlevel": str(run.lowlevel.name),
+    }
 
 
 def _job_result(cfg: DictConfig, job_dir: Path, **made) -> JobResult:
@@ -188,6 +197,8 @@ def _taken(cfg: DictConfig, job_dir: Path, other: JobResult, evals: dict, curve:
         cfg,
         job_dir,
         num_agents=other.num_agents,
+        rules=other.rules,
+        lowlevel=other.lowlevel,
         stages=dict(other.stages),
         stage_core_s=dict(other.stage_core_s),
         evals=evals,

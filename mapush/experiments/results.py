@@ -68,6 +68,7 @@ RECORD = _record(
         "overrides": {"type": "array", "items": TEXT},
         "num_agents": INTEGER,
         "seed": INTEGER,
+        **dict.fromkeys(("rules", "lowlevel"), _nullable(TEXT)),
         "stages": {"type": "object", "additionalProperties": TEXT},
         "stage_core_s": {"type": "object", "additionalProperties": NUMBER},
         "evals": {"type": "object", "additionalProperties": EVAL},
@@ -140,6 +141,8 @@ class JobResult:
     task: str = ""
     num_agents: int = 0
     seed: int = 0
+    rules: str | None = None  # the rules its stages were trained under (`level.rules`); None: before they were named
+    lowlevel: str | None = None  # the low level its stages were trained on (`lowlevel.name`); None: not recorded
     stages: dict[str, str] = field(default_factory=dict)  # stage name -> run dir, in training order
     stage_core_s: dict[str, float] = field(default_factory=dict)  # training core-seconds, kept when runs are gone
     evals: dict[str, dict] = field(default_factory=dict)
@@ -167,7 +170,7 @@ class JobResult:
 
     def record(self) -> dict:
         """The file's content: its fields in order, the optional ones only when set."""
-        optional = {"stage_curves", "eval_wall_s", "supersedes", "archived_from", "taken_from"}
+        optional = {"stage_curves", "eval_wall_s", "supersedes", "archived_from", "taken_from", "rules", "lowlevel"}
         return {
             f.name: getattr(self, f.name)
             for f in dataclasses.fields(self)

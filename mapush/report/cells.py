@@ -10,13 +10,29 @@ import yaml
 from mapush.config import group_file
 from mapush.experiments.results import JobResult, searchpath_overrides
 from mapush.report import curve_findings
-from mapush.report.formats import Cell, Finding, significant
+from mapush.report.formats import Cell, Finding, counted, significant
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
 """The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; each table's `labels`
 are its methods' own (`label` in `conf/method/`)."""
 for _table in ("main", "ocb_ablation"):
     PAPER[_table]["labels"] = {m: str(group_file("method", m).label) for m in PAPER[_table]["methods"]}
+
+
+def setup_of(results: list[JobResult]) -> str:
+    """The rules and low level the `results`' stages were trained under, with how many jobs each: "Trained under
+    rules=original on lowlevel=tracker (12 jobs)"; a result of before they were recorded counts as unrecorded."""
+    counts: dict[tuple[str, str], int] = {}
+    for r in results:
+        key = (f"rules={r.rules}" if r.rules else "rules not recorded", r.lowlevel or "an unrecorded low level")
+        counts[key] = counts.get(key, 0) + 1
+    if not counts:
+        return ""
+    parts = [f"{rules} on {'lowlevel=' * (low != 'an unrecorded low level')}{low} ({counted(n, 'job')})"
+             for (rules, low), n in sorted(counts.items(), key=lambda kv: -kv[1])]  # fmt: skip
+    note = " (results made before 2026-12-06 record neither; every job then ran under mapush's own rules, now "
+    note += "rules=strict)"
+    return "Trained under " + "; ".join(parts) + (note if any(not r.rules for r in results) else "")
 
 
 def matching(results: list[JobResult], **match) -> list[JobResult]:

@@ -17,7 +17,7 @@ from pathlib import Path
 from mapush.atomic import write_json, write_text
 from mapush.experiments.archive import check_results, load_results
 from mapush.report import curve_findings, plots
-from mapush.report.cells import matching
+from mapush.report.cells import matching, setup_of
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
 from mapush.report.ladder_table import ladder_table
@@ -83,6 +83,7 @@ def write_tables(
                 continue
             behind = matching(results, table=kind, variant=variant) + table.also_behind  # each counted in its cost
             table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
+            table.setup = setup_of(behind)
             table.cost = measured_cost(behind)
             table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
             others = [r for r in results if r.table != kind and r.variant == variant]

@@ -98,3 +98,13 @@ def test_a_fall_cell_reads_the_events_count_and_before_events_the_share_a_fall_e
     assert fall_cell([counted_, before], eval="main").values == [70.0, 30.0]
     (line,) = events_finding({"Ours": [counted_]}, "main", "Cuboid")  # events a record lacks are left out
     assert line.text.startswith("Cuboid: episodes with (mean over seeds): Ours a fall 70 %")
+
+
+def test_a_tables_setup_line_counts_its_jobs_by_rules_and_low_level():
+    from mapush.report.cells import setup_of
+
+    made = [JobResult(rules="original", lowlevel="tracker")] * 3 + [JobResult()]
+    line = setup_of(made)
+    assert line.startswith("Trained under rules=original on lowlevel=tracker (3 jobs); rules not recorded on an ")
+    assert "record neither" in line
+    assert setup_of([JobResult(rules="strict", lowlevel="go1")]) == "Trained under rules=strict on lowlevel=go1 (1 job)"
