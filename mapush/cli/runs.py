@@ -1,4 +1,4 @@
-"""Commands on one run: train, eval, play, ship."""
+"""Commands on one run: train, eval, play, ship, export."""
 
 from __future__ import annotations
 
@@ -104,7 +104,10 @@ def evaluate(
         "", "--name", help="Keep this evaluation apart (e.g. with overrides): eval_NAME.json, episodes_NAME.mcap."
     ),
     video: bool = typer.Option(
-        False, "--video", help="Also render env 0's first episode(s) headless to eval_video.mp4 (log.video.*)."
+        False,
+        "--video",
+        help="Also render env 0's first episode(s) headless to eval_video.mp4, whole up to log.video.max_seconds "
+        "(600 s of sim time) per file: log.video.fps (10) frames per sim second, played log.video.speedup (2)x.",
     ),
 ) -> None:
     """Evaluate deterministically; writes eval.json (success rate, completion time) and episodes.mcap."""
@@ -179,3 +182,30 @@ def ship(
     if episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     print(write_shipped(run, out, episodes, seeds_of(seeds)))
+
+
+@app.command()
+def export(
+    run: Path = typer.Argument(..., help="A run dir made by `mapush train`, finished or cut (Ctrl-C)."),
+    checkpoint: Path | None = typer.Option(None, "--checkpoint", help="A model_<it>.pt of it (default: the last)."),
+    out: Path | None = typer.Option(None, "-o", "--out", help="A new dir (default: RUN/export_<iteration>)."),
+) -> None:
+    """Export one checkpoint's policy (policy.onnx, policy.pt) to a new dir, leaving the run as it is: the policy of
+    a run cut before its end, or of any checkpoint."""
+    from mapush.cli.app import output_dir
+    from mapush.commands.train import export_checkpoint
+    from mapush.config import load_run_config
+    from mapush.rundir import checkpoint_iteration, checkpoints
+
+    load_run_config(run)  # BadInput unless a run dir
+    found = checkpoints(run)
+    if checkpoint is None and not found:
+        raise BadInput(f"run dir {str(run)!r} has no checkpoint; valid: a run with model_*.pt")
+    chosen = checkpoint or found[-1]
+    if Path(chosen).resolve() not in [p.resolve() for p in found]:
+        names = ", ".join(p.name for p in found) or "none"
+        raise BadInput(f"--checkpoint {str(chosen)!r} is not a checkpoint of {str(run)!r}; valid: {names}")
+    target = output_dir(out or Path(run) / f"export_{checkpoint_iteration(chosen)}", "--out")
+    if target.exists():
+        raise BadInput(f"--out {str(target)!r} exists; valid: a new dir (nothing is overwritten)")
+    print(export_checkpoint(Path(run), Path(chosen), target))

@@ -117,6 +117,19 @@ def export_finished(run_dir: Path) -> Path:
     return Path(run_dir)
 
 
+def export_checkpoint(run_dir: Path, checkpoint: Path, out: Path) -> Path:
+    """Export the deterministic actor of one of the run's checkpoints (a cut run's last, or any other) to `out`,
+    a new dir: `policy.onnx`, `policy.pt` and their digests, as a finished run's. The run itself is left as it
+    is (its own `policy.pt` would mark it finished)."""
+    cfg = to_plain(load_run_config(run_dir))
+    cfg["num_envs"] = 1  # the actor and its normalizer are the checkpoint's: one env builds them
+    _env, runner = build(cfg, None, int(cfg["train"]["iterations"]))
+    load_into(runner, cfg, checkpoint, "the run's config")
+    out.mkdir(parents=True)
+    export_policy(runner, out)
+    return out
+
+
 def _run(cfg: dict, run_dir: Path, checkpoint: Path | None = None, built: Callable[[], None] | None = None) -> None:
     """Train `run_dir` up to `train.iterations`, from scratch or from `checkpoint`, then export the policy.
 
