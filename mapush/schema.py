@@ -111,11 +111,14 @@ RULES: dict[str, Rule] = {
     "algo.actor.distribution_cfg.std_range": _positive("std"),  # each of [low, high]
     "eval.episodes": _count(1),
     "eval.seeds": _seed(),
+    "log.tensorboard": _flag(),
     "log.video_interval": (int, lambda v: v >= 0, "an integer >= 0 (iterations; 0 = no training videos)"),
     "log.video.width": _even_pixels(),
     "log.video.height": _even_pixels(),
     "log.video.episodes": _count(1),
-    "log.video.max_frames": _count(1),
+    "log.video.fps": _positive("number of frames per second of sim time (at most one per env step is drawn)"),
+    "log.video.speedup": _positive("playback speed (1: real time, 2: twice as fast)"),
+    "log.video.max_seconds": _positive("number of seconds of sim time per file"),
     "log.video.crf": (int, lambda v: 0 <= v <= 51, "an integer in [0, 51] (H.264 quality, lower is better)"),
 }
 """Every checked value: key -> (type, test, what is valid); for a list, of each item."""
@@ -153,6 +156,11 @@ def check_config(cfg: DictConfig | dict, task_weights: set[str] | None = None) -
                 f"{key}={shown!r} is not valid; valid: a name of letters, digits, - and _ (1 to {NAME_LENGTH})"
             )
     algo = OmegaConf.select(cfg, "algo", default=None)
+    if algo is not None and "logger" in algo:  # the runner sets it: another value would be silently replaced
+        raise BadInput(
+            f"algo.logger={OmegaConf.select(algo, 'logger', throw_on_missing=False)!r} is set by mapush (metrics "
+            "always go to metrics.mcap); valid: leave algo.logger out, and add log.tensorboard=true for TensorBoard"
+        )
     if algo is not None:  # as written (no interpolation may name code) and as rsl-rl will read it
         check_class_names("algo", OmegaConf.to_container(algo), resolved=False)
         try:

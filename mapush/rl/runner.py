@@ -21,6 +21,9 @@ from mapush.rl.retention import SCORE_KEY, SUCCESS_TAG, Retention
 from mapush.rundir import ONNX_FILE, POLICY_FILE
 from mapush.untrusted import open_own
 
+READOUTS_KEY = "readouts"
+"""Where a checkpoint's `infos` keep the windows its logged means were computed over (`MapushRunner.readouts`)."""
+
 
 class MapushRunner(OnPolicyRunner):
     """OnPolicyRunner whose checkpoints are written atomically and pruned (`algo.keep_checkpoints`, see
@@ -66,15 +69,32 @@ class MapushRunner(OnPolicyRunner):
         score = writer.latest(SUCCESS_TAG) if isinstance(writer, McapLogWriter) else None
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
-        saved["infos"] = {**(infos or {}), SCORE_KEY: score}
+        saved["infos"] = {**(infos or {}), SCORE_KEY: score, READOUTS_KEY: self.readouts()}
         with replacing(Path(path)) as tmp:
             torch.save(saved, tmp)
         self.logger.save_model(path, self.current_learning_iteration)
         self.retention.saved(Path(path), score)
 
+    def readouts(self) -> dict:
+        """What the logged means are computed over (the logger's windows, the env's success window): kept in
+        every checkpoint, so that a resumed run's readouts go on where the checkpoint left them."""
+        outcomes = getattr(getattr(self.env, "env", None), "outcomes", None)
+        return {"logger": self.logger.readouts(), "env": outcomes.readouts() if outcomes is not None else None}
+
+    def restore_readouts(self, saved: dict) -> None:
+        """Continue a checkpoint's readouts (`readouts`); the episodes this process starts part-way through then
+        stay out of them (`AgentRowsVecEnv.count_whole_only`)."""
+        self.logger.restore(saved["logger"])
+        outcomes = getattr(getattr(self.env, "env", None), "outcomes", None)
+        if outcomes is not None and saved.get("env"):
+            outcomes.restore(saved["env"])
+        if hasattr(self.env, "count_whole_only"):
+            self.env.count_whole_only = True
+
 
 def train_cfg_for(cfg: dict, rows_per_env: int, total_iterations: int) -> dict:
-    """The rsl-rl runner dict: `algo` as configured, plus mapush's MCAP log writer."""
+    """The rsl-rl runner dict: `algo` as configured, plus mapush's MCAP log writer (which also writes TensorBoard's
+    event files with `log.tensorboard=true`; `algo.logger` itself is refused by `check_config`)."""
     train_cfg = copy.deepcopy(cfg["algo"])  # rsl-rl mutates what it is given
     train_cfg["logger"] = {
         "class_name": "mapush.logging.metrics:McapLogWriter",
@@ -83,6 +103,7 @@ def train_cfg_for(cfg: dict, rows_per_env: int, total_iterations: int) -> dict:
         "rows_per_env": rows_per_env,
         "progress": bool(cfg["train"]["progress"]),
         "threads": sim_threads(cfg),
+        "tensorboard": bool(cfg["log"].get("tensorboard", False)),  # runs saved before the key: none
     }
     return train_cfg
 
@@ -122,6 +143,9 @@ def load_checkpoint(
     parts |= {"critic": "critic_state_dict" in data, "optimizer": "optimizer_state_dict" in data and not weights}
     if runner.alg.load(data, parts, True):  # the dict read weights-only above; rsl-rl's runner.load unpickles
         runner.current_learning_iteration = int(data["iter"])
+    readouts = (data.get("infos") or {}).get(READOUTS_KEY)
+    if not weights and readouts and isinstance(runner, MapushRunner):  # checkpoints before them: windows start empty
+        runner.restore_readouts(readouts)
     return int(data["iter"])
 
 
