@@ -103,8 +103,19 @@ event, param), param None for a block that became the event's params. An event's
 defaults, which a run's saved config is merged onto."""
 
 
+RETIRED_KEYS = ("log.video.max_frames",)
+"""Settings runs saved that mapush reads no more, dropped on load: a video's length is `log.video.max_seconds` of sim
+time now, not frames at one per env step (saved runs hold 1500: 30 s, shorter than a high-level episode)."""
+
+
 def upgrade_run_config(run: DictConfig) -> DictConfig:
-    """A run's saved config in today's form (`EVENT_KEYS`); a config already in it is returned as it is."""
+    """A run's saved config in today's form (`RETIRED_KEYS`, `EVENT_KEYS`); a config already in it is returned as
+    it is."""
+    if any(OmegaConf.select(run, key, default=None) is not None for key in RETIRED_KEYS):
+        run = run.copy()
+        for key in RETIRED_KEYS:
+            parent, _, leaf = key.rpartition(".")
+            OmegaConf.select(run, parent).pop(leaf, None)
     level = run.get("level")
     if level is None or not any(OmegaConf.select(level, key) is not None for key in EVENT_KEYS):
         return run

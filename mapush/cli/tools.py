@@ -24,9 +24,9 @@ def bench(
     video: bool = typer.Option(
         False,
         "--video",
-        help="The cost of a headless video: --frames of env 0 (3 robots, the cylinder) rendered and encoded to --out.",
+        help="The cost of a headless video: one whole episode of shipped:cuboid (seed 0) run with its video at the "
+        "log.video defaults (or the overrides given) to --out; seconds per episode, frames.",
     ),
-    frames: int = typer.Option(1000, "--frames", help="--video: frames to render."),
     out: Path = typer.Option(Path("runs/video_dev/bench.mp4"), "--out", help="--video: the MP4 to write."),
 ) -> None:
     """Measure throughput and where an iteration's time goes (docs/performance.md), with --learn the
@@ -40,16 +40,14 @@ def bench(
         output_file(out, "--out")
         if learn:
             raise BadInput("--video and --learn measure different things; valid: one of them")
-        if frames < 1:
-            raise BadInput(f"--frames {frames} is not valid; valid: 1 or more")
         from mapush.viz.preflight import require_offscreen_gl
 
         require_offscreen_gl()  # before MuJoCo is imported: it picks the OpenGL backend
     from mapush import bench as benchmarks
     from mapush.config import compose_config
 
-    if video:  # its own scene: the cylinder, one env (`mapush.bench.rendering.SCENE`), then the overrides
-        result = benchmarks.run_video_bench(list(ctx.args), frames, out, " ".join(["mapush", *sys.argv[1:]]))
+    if video:  # its own episode: shipped:cuboid's first of seed 0 (`mapush.bench.rendering.TARGET`), the overrides
+        result = benchmarks.run_video_bench(list(ctx.args), out, " ".join(["mapush", *sys.argv[1:]]))
     else:
         cfg = compose_config(list(ctx.args))
         if learn:

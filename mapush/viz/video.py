@@ -4,6 +4,9 @@ by PyAV, as the episodes run.
 `VideoRecorder` takes the hook the MCAP `EpisodeRecorder` takes (`env.recorders`: `watch`, `capture` after
 rewards and before resets, `close`). `mapush eval --video` gives it env 0's first episode of each seed, one after
 another in one file; training (`log.video_interval`) env 0's next whole episode every N iterations, one file each.
+A frame is drawn every `log.video.fps`-th of a second of sim time (every k env steps) and played `log.video.speedup`
+times faster than real time, up to `log.video.max_seconds` of sim time per file (a whole high-level episode, 160 s,
+by default). Rendering, not physics or encoding, is what a video costs on a CPU (`mapush bench --video`).
 Call `mapush.viz.preflight.require_offscreen_gl()` before MuJoCo is imported: it picks the OpenGL backend.
 """
 
@@ -11,7 +14,9 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from collections.abc import Callable
+from fractions import Fraction
 from pathlib import Path
 
 import mujoco
@@ -26,10 +31,10 @@ IDLE, WAITING, RECORDING = 0, 1, 2
 
 
 class VideoWriter:
-    """An H.264 MP4 written frame by frame with PyAV: `name.mp4.part` until `close()` renames it, so a cut run
-    leaves no unplayable `.mp4`."""
+    """An H.264 MP4 written frame by frame with PyAV at `fps` frames per second of playback: `name.mp4.part` until
+    `close()` renames it, so a cut run leaves no unplayable `.mp4`."""
 
-    def __init__(self, path: Path, width: int, height: int, fps: int, crf: int):
+    def __init__(self, path: Path, width: int, height: int, fps: Fraction | int, crf: int):
         import av
 
         self.path = Path(path)
@@ -55,6 +60,12 @@ class VideoWriter:
         return self.path
 
 
+PLANE_GRID_M = 1.0
+"""m; the grid a plain plane (the floor) is drawn in. MuJoCo draws an untextured plane as quads of its third size
+(the arena's 0.1 m: 240 x 240 quads); Mesa's CPU renderer spent half of each frame on them, and 1 m quads draw the
+same picture under the headlight."""
+
+
 class FrameRenderer:
     """MuJoCo's offscreen renderer on any env of a batch: the model at that env's state, with `EnvView`'s overlays."""
 
@@ -62,6 +73,9 @@ class FrameRenderer:
         video = cfg["log"]["video"]
         self.width, self.height = int(video["width"]), int(video["height"])
         self.view = EnvView(env, cfg, self.width, self.height)
+        model = self.view.model  # the view's own copy: the simulation keeps its floor
+        plain_planes = (model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE) & (model.geom_matid < 0)
+        model.geom_size[plain_planes, 2] = np.maximum(model.geom_size[plain_planes, 2], PLANE_GRID_M)
         self.renderer = mujoco.Renderer(self.view.model, self.height, self.width)
         self.camera = mujoco.MjvCamera()
         self.view.set_camera(self.camera)
@@ -78,11 +92,20 @@ class FrameRenderer:
         self.renderer.close()  # frees the GL context now, not in a destructor at exit
 
 
+def frame_interval(fps: float, dt: float) -> int:
+    """Env steps of `dt` (s) between two frames at `fps` frames per second of sim time: one at least."""
+    return max(round(1.0 / (float(fps) * dt)), 1)
+
+
 class VideoRecorder:
     """Renders env 0's episodes to MP4 as they run; attach it with `env.recorders.append(recorder)`.
 
+    Each recorded episode's frames are its steps 0, k, 2k, ... (k = `frame_interval(log.video.fps, dt)`), played at
+    `log.video.speedup` / (k dt) frames per second; a file holds `log.video.max_seconds` of sim time at most.
+    `seconds` sums the wall time of the renderer's and encoder's setup, of rendering and of encoding.
+
     Args:
-        cfg: the run's config (`log.video`: size, quality, frames per file, episodes per file, camera).
+        cfg: the run's config (`log.video`: size, quality, frame rate, length, episodes per file, camera).
         path_for: the file of a recording that starts at the recorder's env step `step` (counted from 0).
         one_file: every episode into one file, up to `log.video.episodes` (evaluation); else one file each.
     """
@@ -92,51 +115,74 @@ class VideoRecorder:
         require_offscreen_gl()
         self.cfg, self.path_for, self.one_file = cfg, path_for, one_file
         video = cfg["log"]["video"]
-        self.max_frames, self.max_episodes = int(video["max_frames"]), int(video["episodes"])
+        self.max_seconds, self.max_episodes = float(video["max_seconds"]), int(video["episodes"])
         self.renderer: FrameRenderer | None = None
         self.writer: VideoWriter | None = None
         self.written: list[Path] = []
-        self.episodes = self.steps = self.every_steps = 0
-        self.state, self.env_id, self.fps = IDLE, 0, 50
+        self.seconds = {"setup": 0.0, "render": 0.0, "encode": 0.0}
+        self.episodes = self.steps = self.every_steps = self.episode_step = 0
+        self.state, self.env_id = IDLE, 0
+        self.watch([0], 0.02, "", from_start=False)
 
     def watch(self, env_ids: list[int], dt: float, label: str, from_start: bool, every_steps: int = 0) -> None:
         """Follow the first of `env_ids` of an env with step `dt` (s); `EpisodeRecorder.watch`'s signature."""
-        self.env_id, self.fps, self.every_steps = int(env_ids[0]), max(round(1.0 / dt), 1), every_steps
+        video = self.cfg["log"]["video"]
+        self.env_id, self.every_steps = int(env_ids[0]), every_steps
+        self.interval = frame_interval(video["fps"], dt)  # env steps per frame
+        frame_s = Fraction(self.interval * dt).limit_denominator(100_000)  # sim time per frame
+        self.rate = Fraction(video["speedup"]).limit_denominator(1000) / frame_s  # frames per second of playback
+        self.max_frames = max(int(self.max_seconds / float(frame_s) + 1e-9), 1)
+        self.frame_s = float(frame_s)
         self.steps = 0
         finished = self.one_file and bool(self.written)  # evaluation: its one file is already complete
-        self.state = RECORDING if from_start and not finished else IDLE
+        self._set(RECORDING if from_start and not finished else IDLE)
+
+    def _set(self, state: int) -> None:
+        self.state = state
+        self.episode_step = 0  # a recording starts with an episode's first step
 
     def capture(self, env, commands, reward, parts, done) -> None:
         """Called by the env every step, after rewards and before resets: render env 0 while recording it."""
         self.steps += 1
         if self.every_steps and self.steps % self.every_steps == 0 and self.state == IDLE:
-            self.state = WAITING  # the next episode to begin is recorded
+            self._set(WAITING)  # the next episode to begin is recorded
         ended = bool(done[self.env_id])
         if self.state == RECORDING:
-            self._frame(env, ended)
+            if self.episode_step % self.interval == 0:
+                self._frame(env, ended)
+            self.episode_step += 1
             if ended or self.state != RECORDING:
                 self._end_episode()
         elif self.state == WAITING and ended:
-            self.state = RECORDING
+            self._set(RECORDING)
 
     def _frame(self, env, ended: bool) -> None:
+        start = time.perf_counter()
         if self.renderer is None:
             self.renderer = FrameRenderer(env, self.cfg)
         if self.writer is None:
             video = self.cfg["log"]["video"]
             path = self.path_for(self.steps - 1)
             path.parent.mkdir(parents=True, exist_ok=True)
-            self.writer = VideoWriter(path, self.renderer.width, self.renderer.height, self.fps, int(video["crf"]))
-        self.writer.write(self.renderer.render(env, self.env_id))
-        if self.writer.frames >= self.max_frames and not ended:
+            self.writer = VideoWriter(path, self.renderer.width, self.renderer.height, self.rate, int(video["crf"]))
+        rendering = time.perf_counter()
+        image = self.renderer.render(env, self.env_id)
+        encoding = time.perf_counter()
+        self.writer.write(image)
+        self._add(setup=rendering - start, render=encoding - rendering, encode=time.perf_counter() - encoding)
+        if self.writer.frames >= self.max_frames:
             self.state = IDLE  # the file is full: the rest of this episode is not recorded, and the user is told
-            print(
-                f"mapush: video {self.writer.path.name} stops at {self.max_frames / self.fps:.1f} s, before the "
-                f"episode ends (log.video.max_frames={self.max_frames}; raise it to record whole episodes)",
-                file=sys.stderr,
-            )
-        elif self.writer.frames >= self.max_frames:
-            self.state = IDLE
+            if not ended:
+                print(
+                    f"mapush: video {self.writer.path.name} stops at {self.max_frames * self.frame_s:.1f} s of sim "
+                    f"time, before the episode ends (log.video.max_seconds={self.max_seconds:g}; raise it to record "
+                    "whole episodes)",
+                    file=sys.stderr,
+                )
+
+    def _add(self, **seconds: float) -> None:
+        for part, value in seconds.items():
+            self.seconds[part] += value
 
     def _end_episode(self) -> None:
         self.episodes += 1
@@ -147,8 +193,10 @@ class VideoRecorder:
 
     def _finish_file(self) -> None:
         if self.writer is not None:
+            start = time.perf_counter()
             self.written.append(self.writer.close())
             self.writer = None
+            self._add(encode=time.perf_counter() - start)  # the encoder's flush
 
     def close(self) -> None:
         """Finish the file being written (an episode still running ends the video there) and free the renderer."""

@@ -50,9 +50,11 @@ class FakeRenderer:
 
 class FakeWriter:
     files: ClassVar[dict[str, int]] = {}
+    rates: ClassVar[dict[str, float]] = {}
 
     def __init__(self, path, width, height, fps, crf):
         self.path, self.frames = Path(path), 0
+        FakeWriter.rates[self.path.name] = fps
 
     def write(self, image):
         self.frames += 1
@@ -75,7 +77,7 @@ def fake_video(monkeypatch):
     monkeypatch.setattr(video, "FrameRenderer", FakeRenderer)
     monkeypatch.setattr(video, "VideoWriter", FakeWriter)
     monkeypatch.setattr(video, "require_offscreen_gl", lambda: "egl")
-    FakeWriter.files = {}
+    FakeWriter.files, FakeWriter.rates = {}, {}
     return FakeWriter.files
 
 
@@ -86,7 +88,7 @@ def run_episode(recorder, env, length: int) -> None:
 
 
 def test_eval_video_holds_env_0s_first_episode_of_each_seed_up_to_the_episode_count(cfg_for, fake_video, tmp_path):
-    cfg = cfg_for("debug=smoke", "log.video.episodes=2")
+    cfg = cfg_for("debug=smoke", "log.video.episodes=2", "log.video.fps=50")  # a frame every 0.02 s step
     recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
     for length in (3, 4, 5):  # three seeds; the third is past log.video.episodes
         recorder.watch([0, 1], 0.02, "seed", from_start=True)
@@ -96,8 +98,8 @@ def test_eval_video_holds_env_0s_first_episode_of_each_seed_up_to_the_episode_co
     assert fake_video == {"eval_video.mp4": 3 + 4}
 
 
-def test_eval_video_stops_at_max_frames(cfg_for, fake_video, tmp_path):
-    cfg = cfg_for("debug=smoke", "log.video.episodes=3", "log.video.max_frames=5")
+def test_eval_video_stops_at_max_seconds(cfg_for, fake_video, tmp_path):
+    cfg = cfg_for("debug=smoke", "log.video.episodes=3", "log.video.fps=50", "log.video.max_seconds=0.1")
     recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
     for length in (3, 4, 4):
         recorder.watch([0], 0.02, "seed", from_start=True)
@@ -107,7 +109,7 @@ def test_eval_video_stops_at_max_frames(cfg_for, fake_video, tmp_path):
 
 
 def test_a_video_cut_before_its_episode_ends_says_where(cfg_for, fake_video, tmp_path, capsys):
-    cfg = cfg_for("debug=smoke", "log.video.max_frames=5")
+    cfg = cfg_for("debug=smoke", "log.video.fps=50", "log.video.max_seconds=0.1")
     recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
     recorder.watch([0], 0.02, "seed", from_start=True)
     run_episode(recorder, FakeEnv(), 5)  # ends on its 5th frame: whole, nothing to say
@@ -116,12 +118,48 @@ def test_a_video_cut_before_its_episode_ends_says_where(cfg_for, fake_video, tmp
     recorder.watch([0], 0.02, "seed", from_start=True)
     run_episode(recorder, FakeEnv(), 9)
     recorder.close()
-    assert "stops at 0.1 s, before the episode ends (log.video.max_frames=5" in capsys.readouterr().err
+    assert "stops at 0.1 s of sim time, before the episode ends (log.video.max_seconds=0.1;" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("steps", "fps", "frames"), [(8000, 10, 1600), (2276, 10, 456), (23, 10, 5), (23, 50, 23)])
+def test_a_video_covers_the_whole_episode_a_frame_every_interval(cfg_for, fake_video, tmp_path, steps, fps, frames):
+    """A high-level episode's longest (160 s: 8000 steps of 0.02 s) and a successful cuboid one (45.5 s) whole at the
+    defaults: a frame every 5 steps (10 per second of sim time) from the first, played twice as fast (20 fps)."""
+    cfg = cfg_for("debug=smoke", f"log.video.fps={fps}")
+    recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
+    recorder.watch([0], 0.02, "seed", from_start=True)
+    run_episode(recorder, FakeEnv(), steps)
+    recorder.close()
+    assert fake_video == {"eval_video.mp4": frames}
+    assert FakeWriter.rates == {"eval_video.mp4": 2 * fps}
+
+
+def test_the_default_cap_is_past_a_high_level_episode_and_a_lower_one_is_kept(cfg_for, fake_video, tmp_path, capsys):
+    assert cfg_for("debug=smoke")["log"]["video"]["max_seconds"] >= 160  # `level=high`'s episode_length_s
+    cfg = cfg_for("debug=smoke", "log.video.max_seconds=30")
+    recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
+    recorder.watch([0], 0.02, "seed", from_start=True)
+    run_episode(recorder, FakeEnv(), 8000)
+    recorder.close()
+    assert fake_video == {"eval_video.mp4": 300}  # 30 s of sim time at 10 frames per second
+    assert "stops at 30.0 s of sim time" in capsys.readouterr().err
+
+
+def test_a_run_saved_with_max_frames_loads_with_todays_video_length(tmp_path):
+    """Runs (and the shipped policies) saved `log.video.max_frames: 1500` (30 s): it is dropped on load, and their
+    videos follow today's `log.video.max_seconds`."""
+    from mapush.config import load_run_config
+
+    shipped = Path(video.__file__).parents[1] / "policies" / "cuboid" / "high" / "config.yaml"
+    assert "max_frames: 1500" in shipped.read_text()
+    (tmp_path / "config.yaml").write_text(shipped.read_text())
+    loaded = load_run_config(tmp_path).log.video
+    assert "max_frames" not in loaded and loaded.max_seconds >= 160 and loaded.fps == 10
 
 
 def test_training_video_records_the_next_episode_every_interval_named_by_iteration(cfg_for, fake_video, tmp_path):
     # 4 env steps per iteration, a video every iteration, env 0's episodes end at steps 3, 6, 9, 12, 15
-    cfg = cfg_for("debug=smoke", "log.video_interval=1", "algo.num_steps_per_env=4")
+    cfg = cfg_for("debug=smoke", "log.video_interval=1", "algo.num_steps_per_env=4", "log.video.fps=50")
     env = FakeEnv()
     recorder = video.attach_training_video(cfg, env, tmp_path, first_iteration=10)
     assert env.recorders == [recorder]
@@ -147,10 +185,21 @@ def test_the_eval_video_is_named_like_its_eval_json(name):
 
 
 # ------------------------------------------------------------------------------------------ preflight checks
-@pytest.mark.parametrize("override", ["log.video.width=641", "log.video.height=0", "log.video_interval=-1"])
+@pytest.mark.parametrize(
+    "override",
+    [
+        "log.video.width=641",
+        "log.video.height=0",
+        "log.video_interval=-1",
+        "log.video.fps=0",
+        "log.video.speedup=-1",
+        "log.video.max_seconds=0",
+    ],
+)
 def test_a_bad_video_setting_is_one_line_naming_it(cfg_for, override):
-    with pytest.raises(BadInput, match=override.split("=")[0]):
+    with pytest.raises(BadInput, match=override.split("=")[0]) as err:
         preflight.check_video_config(cfg_for(override))
+    assert "\n" not in str(err.value) and "valid: a" in str(err.value)
 
 
 def test_no_renderer_names_what_to_install(monkeypatch):
@@ -211,7 +260,7 @@ RENDER_SCRIPT = textwrap.dedent(
     from mapush.config import compose_config, to_plain
     from mapush.envs.mid import MidPushEnv
     from mapush.viz.video import eval_video_recorder
-    cfg = to_plain(compose_config(["debug=smoke", "task=cylinder", "log.video.max_frames=20"]))
+    cfg = to_plain(compose_config(["debug=smoke", "task=cylinder", "log.video.fps=50", "log.video.max_seconds=0.4"]))
     env = MidPushEnv(cfg, num_envs=2)
     recorder = eval_video_recorder(cfg, sys.argv[1])
     recorder.watch([0, 1], env.frame_dt, "test", from_start=True)
@@ -262,7 +311,8 @@ def test_training_with_a_video_interval_leaves_videos_in_the_run_dir(cylinder_ru
 @pytest.mark.slow
 def test_eval_video_of_a_trained_run_writes_the_asked_frames_next_to_eval_json(cylinder_run, run_cli, tmp_path):
     # 9 frames are 0.18 s: from the default 9 m the robots move about a pixel, so the camera comes closer
-    args = ["--video", "log.video.max_frames=9", "log.video.camera.distance=3.0", "--name", "clip"]
+    args = ["--video", "log.video.fps=50", "log.video.max_seconds=0.18", "log.video.camera.distance=3.0"]
+    args += ["--name", "clip"]
     proc = run_cli(["eval", cylinder_run, *args], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     video_path, eval_json = proc.stdout.strip().splitlines()[-2:]
@@ -270,6 +320,50 @@ def test_eval_video_of_a_trained_run_writes_the_asked_frames_next_to_eval_json(c
     frames = decoded(Path(video_path))
     assert len(frames) == 9
     assert moved(frames[0], frames[-1]) > 0
+
+
+WHOLE_EPISODE_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    from mapush.viz.preflight import require_offscreen_gl
+    require_offscreen_gl()
+    import torch
+    from mapush.config import compose_config, to_plain
+    from mapush.envs.mid import MidPushEnv
+    from mapush.viz.video import eval_video_recorder
+    small = ["log.video.width=64", "log.video.height=32"]
+    cfg = to_plain(compose_config(["debug=smoke", "level.episode_length_s=0.9", *small]))
+    env = MidPushEnv(cfg, num_envs=1)
+    recorder = eval_video_recorder(cfg, sys.argv[1])
+    recorder.watch([0], env.frame_dt, "test", from_start=True)
+    env.recorders.append(recorder)
+    steps = 0
+    while recorder.episodes == 0:
+        env.step(torch.zeros(1, env.num_agents, 3))
+        steps += 1
+    recorder.close()
+    print(steps, env.frame_dt)
+    """
+)
+
+
+@pytest.mark.slow
+def test_a_recorded_episode_is_whole_at_the_default_frame_rate(tmp_path):
+    """At the defaults a video holds its whole episode: a frame every 0.1 s of sim time from the first step, and the
+    MP4 (read back by PyAV) lasts the episode's sim time over `log.video.speedup` (2)."""
+    out = tmp_path / "whole.mp4"
+    proc = run_child(WHOLE_EPISODE_SCRIPT, str(out))
+    assert proc.returncode == 0, proc.stderr
+    steps, dt = proc.stdout.split()
+    steps, every = int(steps), round(0.1 / float(dt))
+    assert every < steps <= round(0.9 / float(dt))  # the episode ends at its timeout, or before on a fall
+    with av.open(str(out)) as container:
+        stream = container.streams.video[0]
+        frames = len([frame for frame in container.decode(stream)])
+        duration = float(stream.duration * stream.time_base)
+        assert float(stream.average_rate) == pytest.approx(2 * 10)
+    assert frames == -(-steps // every)  # ceil: the steps 0, k, 2k, ... of the episode
+    assert duration == pytest.approx(frames / 20)
 
 
 HIGH_FRAME_SCRIPT = textwrap.dedent(
