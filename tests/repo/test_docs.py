@@ -140,3 +140,62 @@ def test_the_checks_catch_what_they_should():
     assert repo_paths(text) == ["mapush/nope.py"]
     assert foreign_citations("see notes-elsewhere.md 1.1 and design.md") == ["notes-elsewhere.md"]
     assert foreign_citations("as spec section 6 says") == ["spec section 6"]
+
+
+FIGURE = re.compile(r"(?<![\w.])\d+(?:\.\d+)? ± \d+(?:\.\d+)?(?![.\d])|(?<![\w.])(?<!± )\d+\.\d %")
+"""A figure a command generates: a cell `x ± y` (also written `x +- y`) or a share `NN.N %` (not the std of a cell)."""
+PLUS_MINUS = re.compile(r" (?:±|\+-) ")
+FIGURE_DOCS = ("README.md", "results/README.md", "docs/*.md")
+"""The docs whose figures must be generated ones: docs/notes/ are dated history and keep what they measured."""
+GENERATED = (".md", ".csv", ".json")
+
+
+def generated_text() -> str:
+    """Every committed generated file under results/ (tables, sidecars, records), `±` written one way."""
+    names = [n for n in tracked_files() if n.startswith("results/") and n.endswith(GENERATED)]
+    texts = [(ROOT / n).read_text() for n in names if Path(n).name != "README.md" and (ROOT / n).is_file()]
+    return PLUS_MINUS.sub(" ± ", "\n".join(texts))
+
+
+def unsourced_figures(doc: str, text: str, source: str) -> list[str]:
+    """`doc:line: figure` for each figure of `text` that `source` does not hold: a cell verbatim; a share as a
+    share or as a cell's mean (`60.0 %` is held by `60.0 ± 6.0`)."""
+    missing = []
+    for number, line in enumerate(text.splitlines(), 1):
+        for figure in FIGURE.findall(PLUS_MINUS.sub(" ± ", line)):
+            held = figure in source or (figure.endswith(" %") and f"{figure[:-2]} ±" in source)
+            if not held:
+                missing.append(f"{doc}:{number}: {figure}")
+    return missing
+
+
+def figure_docs() -> list[Path]:
+    return sorted({path for pattern in FIGURE_DOCS for path in ROOT.glob(pattern)})
+
+
+def test_the_docs_quote_only_figures_the_committed_results_hold():
+    """No figure a command generates is typed into a doc by hand: a doc that quotes one quotes a generated file under
+    results/ verbatim (and links it); a dated measurement no such file holds belongs in docs/notes/."""
+    source = generated_text()
+    missing = []
+    for doc in figure_docs():
+        missing += unsourced_figures(doc.relative_to(ROOT).as_posix(), doc.read_text(), source)
+    assert not missing, "figures no committed file under results/ holds:\n" + "\n".join(missing)
+
+
+def test_the_figure_check_catches_a_made_up_figure():
+    """A doc quoting a cell or share the results hold passes; a made-up one is named with its doc and line."""
+    source = PLUS_MINUS.sub(" ± ", "| Cuboid | 62.0 ± 10.0 † | 74.0 +- 1.0 % |\n- Cuboid: SA 84.0 % is at or above")
+    quoted = "Ours gets 62.0 ± 10.0 and 74.0 ± 1.0 %, SA 84.0 % and 62.0 %.\nIt took 3.9 minutes.\n"
+    assert unsourced_figures("doc.md", quoted, source) == []
+    made_up = quoted + "Ours gets 53.5 ± 21.0 and 12.3 +- 4.5 %; SA 99.9 % at 2 kg, and 100.0 %.\n"
+    assert unsourced_figures("doc.md", made_up, source) == [
+        "doc.md:3: 53.5 ± 21.0",
+        "doc.md:3: 12.3 ± 4.5",
+        "doc.md:3: 99.9 %",
+        "doc.md:3: 100.0 %",
+    ]
+    checked = [path.relative_to(ROOT).as_posix() for path in figure_docs()]
+    assert {"README.md", "results/README.md", "docs/experiments.md"} <= set(checked)
+    assert not any(name.startswith("docs/notes/") for name in checked)
+    assert "53.5 ± 21.0" in generated_text()  # a cell of results/team_quick.md: the committed results are read
