@@ -111,7 +111,7 @@ def kinds(tmp_path):
         (("logs", "recover", "cut.mcap", "-o", "{}"), "dir", "is a directory"),
         (("logs", "recover", "cut.mcap", "-o", "{}"), "link", "is a symlink"),
         (("logs", "layout", "-o", "{}"), "dir", "is a directory"),
-        (("compare", "nowhere", "lowlevel=go1", "--out", "{}/x"), "dir", "x.md' is a directory"),
+        (("compare", "nowhere", "lowlevel=go1", "--out", "{}/OUT"), "dir", "OUT.md' is a directory"),
         (("bench", "--json", "{}"), "dir", "is a directory"),
         (("plan", "--png", "{}"), "dirlink", "is a symlink"),
         (("calibrate", "--out", "{}"), "link", "is a symlink"),
@@ -121,7 +121,7 @@ def test_an_output_path_of_the_wrong_kind_is_one_line_and_replaces_nothing(
     cli, tmp_path, snapshot, kinds, args, kind, named
 ):
     (tmp_path / "cut.mcap").write_bytes(b"\x89MCAP0\r\n")
-    (kinds["dir"] / "x.md").mkdir()  # compare's OUT.md
+    (kinds["dir"] / "OUT.md").mkdir()  # compare's OUT.md
     before = snapshot(tmp_path)
     line = assert_bad_input(cli(*(a.format(kinds[kind]) for a in args)), named, "valid:")
     assert str(kinds[kind]) in line
