@@ -21,18 +21,20 @@ for _table in ("main", "ocb_ablation"):
 
 def setup_of(results: list[JobResult]) -> str:
     """The rules and low level the `results`' stages were trained under, with how many jobs each: "Trained under
-    rules=original on lowlevel=tracker (12 jobs)"; a result of before they were recorded counts as unrecorded."""
-    counts: dict[tuple[str, str], int] = {}
+    rules=original on lowlevel=tracker (12 jobs)"; results made before jobs recorded them are counted apart."""
+    counts: dict[str, int] = {}
     for r in results:
-        key = (f"rules={r.rules}" if r.rules else "rules not recorded", r.lowlevel or "an unrecorded low level")
-        counts[key] = counts.get(key, 0) + 1
-    if not counts:
-        return ""
-    parts = [f"{rules} on {'lowlevel=' * (low != 'an unrecorded low level')}{low} ({counted(n, 'job')})"
-             for (rules, low), n in sorted(counts.items(), key=lambda kv: -kv[1])]  # fmt: skip
-    note = " (results made before 2026-12-06 record neither; every job then ran under mapush's own rules, now "
-    note += "rules=strict)"
-    return "Trained under " + "; ".join(parts) + (note if any(not r.rules for r in results) else "")
+        if r.rules:
+            key = f"rules={r.rules} on lowlevel={r.lowlevel}"
+            counts[key] = counts.get(key, 0) + 1
+    parts = [f"{key} ({counted(n, 'job')})" for key, n in sorted(counts.items(), key=lambda kv: -kv[1])]
+    before = sum(not r.rules for r in results)
+    if before:
+        parts.append(
+            f"{counted(before, 'job')} made before jobs recorded their rules and low level (2026-12-06): mapush's "
+            "own rules then, now rules=strict"
+        )
+    return f"Trained under {'; '.join(parts)}" if parts else ""
 
 
 def matching(results: list[JobResult], **match) -> list[JobResult]:
