@@ -102,8 +102,13 @@ def open_own(path: Path, mode: str):
 def run_lock(run_dir: Path, training: bool) -> Iterator[None]:
     """Hold `run_dir` for this process without waiting: alone to train it (`training`), beside other evaluations
     to evaluate it. BadInput at once, naming the holder, when another process holds it so. The lock goes with the
-    process (flock), so a killed holder never leaves the run locked."""
-    fd = os.open(Path(run_dir) / LOCK_FILE, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+    process (flock), so a killed holder never leaves the run locked. Only a trainer makes the lock file: an
+    evaluation of a dir no process ever trained (a shipped policy, perhaps in a read-only install) writes nothing."""
+    path = Path(run_dir) / LOCK_FILE
+    if not training and not path.is_file():
+        yield  # nothing trains it now: a trainer makes the file before it starts
+        return
+    fd = os.open(path, os.O_NOFOLLOW | (os.O_RDWR | os.O_CREAT if training else os.O_RDONLY), 0o644)
     try:
         try:
             fcntl.flock(fd, (fcntl.LOCK_EX if training else fcntl.LOCK_SH) | fcntl.LOCK_NB)

@@ -93,13 +93,15 @@ def run_copy(smoke_run, tmp_path) -> Path:
 
 @pytest.fixture
 def snapshot():
-    """`snapshot(dir)`: every file under `dir` with its size and mtime, to check that a command changed nothing."""
+    """`snapshot(dir)`: every file under `dir` with its size and mtime, to check that a command changed nothing
+    (but the run lock's file, which holds the pid of the last process that took it, a record of nothing)."""
+    from mapush.untrusted import LOCK_FILE
 
     def take(directory: Path) -> dict[str, tuple[int, int]]:
         return {
             str(p.relative_to(directory)): (p.stat().st_size, p.stat().st_mtime_ns)
             for p in sorted(Path(directory).rglob("*"))
-            if p.is_file()
+            if p.is_file() and p.name != LOCK_FILE
         }
 
     return take

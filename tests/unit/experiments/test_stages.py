@@ -11,7 +11,7 @@ import pytest
 from omegaconf import OmegaConf, open_dict
 from paths import REPO
 
-from mapush.config import compose_config, load_run_config
+from mapush.config import compose_config, group_file, load_run_config
 from mapush.errors import BadInput
 from mapush.experiments import archive, pipeline, stage_plan, stages
 from mapush.experiments.archive import made_otherwise
@@ -254,7 +254,9 @@ def test_a_stage_trained_by_one_experiment_is_reused_by_another_and_the_dry_run_
     (twin,) = [json.loads(p.read_text()) for p in root.glob(f"scale_*/*/{RESULT}")]
     main_result = json.loads(made.read_text())
     assert twin["taken_from"] == str(made.parent) and twin["experiment"] == "scale"
-    assert twin["stages"] == main_result["stages"] and twin["evals"] == {"main": main_result["evals"]["main"]}
+    asked = set(twin["evals"])  # what the study asks for: its main evaluation and the ladder's rungs
+    assert twin["stages"] == main_result["stages"] and asked == {"main", *group_file("ladder", "rungs")}
+    assert all(twin["evals"][name] == main_result["evals"][name] for name in asked)
 
     # an evaluation the main job lacks (the mid level alone): the stages are reused, that evaluation made
     extra = "+experiment.evals.mid={stage:mid,overrides:[]}"
@@ -467,9 +469,10 @@ def test_a_finished_job_made_by_other_stages_is_listed_and_kept_or_run_again(cli
 
     # an evaluation the experiment now asks for and the result lacks
     stale = _fake_result(cfg, now)
-    stale["evals"] = {"old_name": {}}
+    stale["evals"] = {"old_name": {"success_rate": 0.5}}
     (job / RESULT).write_text(json.dumps(stale))
-    assert "its evaluations changed (old_name -> go1, main)" in cli(*args).stdout
+    asked = ", ".join(sorted(["main", *group_file("ladder", "rungs")]))
+    assert f"its evaluations changed (old_name -> {asked})" in cli(*args).stdout
 
 
 @pytest.mark.slow

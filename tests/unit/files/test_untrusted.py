@@ -42,6 +42,8 @@ HOLD += "print('held', flush=True); time.sleep(60)"
 
 @pytest.mark.parametrize(("holder_trains", "refusal"), [(True, "being trained by process"), (False, "evaluated")])
 def test_a_held_run_is_refused_at_once_and_freed_with_its_holder(tmp_path, holder_trains, refusal):
+    with run_lock(tmp_path, training=True):  # a run dir was trained: its lock file is there
+        pass
     holder = subprocess.Popen([sys.executable, "-c", HOLD.format(holder_trains), str(tmp_path)], stdout=subprocess.PIPE)
     try:
         assert holder.stdout.readline().strip() == b"held"
@@ -55,3 +57,9 @@ def test_a_held_run_is_refused_at_once_and_freed_with_its_holder(tmp_path, holde
         holder.wait()
     with run_lock(tmp_path, training=True):  # the killed holder left nothing taken
         pass
+
+
+def test_evaluating_a_dir_no_one_trained_writes_no_lock_file(tmp_path):
+    with run_lock(tmp_path, training=False):  # a shipped policy, perhaps in a read-only install
+        pass
+    assert list(tmp_path.iterdir()) == []

@@ -215,6 +215,7 @@ def test_shipping_a_run_writes_a_slim_run_dir_and_evaluates_the_shipped_files(cl
     assert 0.0 <= result["fall_rate"] <= 1.0
     assert json.loads((out / "meta.json").read_text())["shipped_from"]["run"] == low_run.name
     files = ["config.yaml", "overrides.yaml", "meta.json", "model_1.pt", "policy.pt", "policy.onnx", "eval.json"]
+    files.append("sha256.json")  # the weights' digests, checked at load
     assert sorted(p.name for p in out.iterdir()) == sorted(files)
     obs = torch.randn(16, PROPRIO_DIM)
     shipped, source = torch.jit.load(out / "policy.pt"), torch.jit.load(low_run / "policy.pt")
