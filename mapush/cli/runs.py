@@ -107,7 +107,7 @@ def evaluate(
         False,
         "--video",
         help="Also render env 0's first episode(s) headless to eval_video.mp4, whole up to log.video.max_seconds "
-        "(600 s of sim time) per file: log.video.fps (10) frames per sim second, played log.video.speedup (2)x.",
+        "(600 s of sim time) per file: log.video.fps (5) frames per sim second, played log.video.speedup (4)x.",
     ),
 ) -> None:
     """Evaluate deterministically; writes eval.json (success rate, completion time) and episodes.mcap."""

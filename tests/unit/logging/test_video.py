@@ -16,9 +16,14 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
+from omegaconf import OmegaConf
 
+from mapush.config import CONF_DIR
 from mapush.errors import BadInput
 from mapush.viz import preflight, video
+
+DEFAULT = OmegaConf.load(CONF_DIR / "config.yaml").log.video
+"""Today's video defaults (`log.video`), which the tests of whole episodes are about."""
 
 av = pytest.importorskip("av")
 
@@ -124,14 +129,14 @@ def test_a_video_cut_before_its_episode_ends_says_where(cfg_for, fake_video, tmp
 @pytest.mark.parametrize(("steps", "fps", "frames"), [(8000, 10, 1600), (2276, 10, 456), (23, 10, 5), (23, 50, 23)])
 def test_a_video_covers_the_whole_episode_a_frame_every_interval(cfg_for, fake_video, tmp_path, steps, fps, frames):
     """A high-level episode's longest (160 s: 8000 steps of 0.02 s) and a successful cuboid one (45.5 s) whole at the
-    defaults: a frame every 5 steps (10 per second of sim time) from the first, played twice as fast (20 fps)."""
+    defaults' playback rate (`log.video.fps` x `log.video.speedup` frames per second of the file)."""
     cfg = cfg_for("debug=smoke", f"log.video.fps={fps}")
     recorder = video.eval_video_recorder(cfg, tmp_path / "eval_video.mp4")
     recorder.watch([0], 0.02, "seed", from_start=True)
     run_episode(recorder, FakeEnv(), steps)
     recorder.close()
     assert fake_video == {"eval_video.mp4": frames}
-    assert FakeWriter.rates == {"eval_video.mp4": 2 * fps}
+    assert FakeWriter.rates == {"eval_video.mp4": DEFAULT.speedup * fps}
 
 
 def test_the_default_cap_is_past_a_high_level_episode_and_a_lower_one_is_kept(cfg_for, fake_video, tmp_path, capsys):
@@ -141,7 +146,7 @@ def test_the_default_cap_is_past_a_high_level_episode_and_a_lower_one_is_kept(cf
     recorder.watch([0], 0.02, "seed", from_start=True)
     run_episode(recorder, FakeEnv(), 8000)
     recorder.close()
-    assert fake_video == {"eval_video.mp4": 300}  # 30 s of sim time at 10 frames per second
+    assert fake_video == {"eval_video.mp4": 30 * DEFAULT.fps}  # 30 s of sim time at the default frame rate
     assert "stops at 30.0 s of sim time" in capsys.readouterr().err
 
 
@@ -154,7 +159,7 @@ def test_a_run_saved_with_max_frames_loads_with_todays_video_length(tmp_path):
     assert "max_frames: 1500" in shipped.read_text()
     (tmp_path / "config.yaml").write_text(shipped.read_text())
     loaded = load_run_config(tmp_path).log.video
-    assert "max_frames" not in loaded and loaded.max_seconds >= 160 and loaded.fps == 10
+    assert "max_frames" not in loaded and loaded.max_seconds >= 160 and loaded.fps == DEFAULT.fps
 
 
 def test_training_video_records_the_next_episode_every_interval_named_by_iteration(cfg_for, fake_video, tmp_path):
@@ -350,20 +355,20 @@ WHOLE_EPISODE_SCRIPT = textwrap.dedent(
 @pytest.mark.slow
 def test_a_recorded_episode_is_whole_at_the_default_frame_rate(tmp_path):
     """At the defaults a video holds its whole episode: a frame every 0.1 s of sim time from the first step, and the
-    MP4 (read back by PyAV) lasts the episode's sim time over `log.video.speedup` (2)."""
+    MP4 (read back by PyAV) lasts the episode's sim time over `log.video.speedup`."""
     out = tmp_path / "whole.mp4"
     proc = run_child(WHOLE_EPISODE_SCRIPT, str(out))
     assert proc.returncode == 0, proc.stderr
     steps, dt = proc.stdout.split()
-    steps, every = int(steps), round(0.1 / float(dt))
+    steps, every = int(steps), round(1 / DEFAULT.fps / float(dt))
     assert every < steps <= round(0.9 / float(dt))  # the episode ends at its timeout, or before on a fall
     with av.open(str(out)) as container:
         stream = container.streams.video[0]
         frames = len([frame for frame in container.decode(stream)])
         duration = float(stream.duration * stream.time_base)
-        assert float(stream.average_rate) == pytest.approx(2 * 10)
+        assert float(stream.average_rate) == pytest.approx(DEFAULT.speedup * DEFAULT.fps)
     assert frames == -(-steps // every)  # ceil: the steps 0, k, 2k, ... of the episode
-    assert duration == pytest.approx(frames / 20)
+    assert duration == pytest.approx(frames / (DEFAULT.speedup * DEFAULT.fps))
 
 
 HIGH_FRAME_SCRIPT = textwrap.dedent(
