@@ -85,27 +85,31 @@ def seeds_of(text: str, flag: str = "--seeds") -> list[int]:
 def output_file(path: Path, flag: str) -> Path:
     """`path` for a command to write a file at; BadInput unless nothing is there or a plain file is (a dir, a
     symlink, whose target would be written through, or a device is refused), under dirs."""
-    shown = f"{flag} {str(path)!r}"
-    if path.is_symlink():
-        raise BadInput(f"{shown} is a symlink; valid: a plain file path (mapush writes no file through a link)")
+    shown = _no_link_under_dirs(path, flag, "a plain file path (mapush writes no file through a link)")
     if path.is_dir():
         raise BadInput(f"{shown} is a directory; valid: a file path, not a dir")
     if path.exists() and not path.is_file():
         raise BadInput(f"{shown} is not a plain file (a device or pipe); valid: a file path")
-    _under_dirs(path, shown)
     return path
 
 
 def output_dir(path: Path, flag: str) -> Path:
     """`path` for a command to write its files into; BadInput unless nothing is there or a dir (not a symlink to
     one, whose target would be written through), under dirs."""
-    shown = f"{flag} {str(path)!r}"
-    if path.is_symlink():
-        raise BadInput(f"{shown} is a symlink; valid: a plain dir path (mapush writes no files through a link)")
+    shown = _no_link_under_dirs(path, flag, "a plain dir path (mapush writes no files through a link)")
     if path.exists() and not path.is_dir():
         raise BadInput(f"{shown} is a file; valid: a directory (or a path not taken yet), not a file")
-    _under_dirs(path, shown)
     return path
+
+
+def _no_link_under_dirs(path: Path, flag: str, valid: str) -> str:
+    """`flag 'path'` as a message names it; BadInput when `path` is a symlink (`valid` says what is) or lies under
+    a file (`_under_dirs`)."""
+    shown = f"{flag} {str(path)!r}"
+    if path.is_symlink():
+        raise BadInput(f"{shown} is a symlink; valid: {valid}")
+    _under_dirs(path, shown)
+    return shown
 
 
 def _under_dirs(path: Path, shown: str) -> None:

@@ -19,11 +19,11 @@ def summary(
 ) -> None:
     """Print a file's topics (schema, message count), time span and whether it is complete, and each training
     scalar's last, lowest and highest value; for a run dir, its metrics files read as one series."""
-    from mapush.logging.mcap_files import training_scalars
+    from mapush.logging.mcap_files import metrics_parts, training_scalars
     from mapush.logging.scalars import format_summary, summarize
 
     if path.is_dir():
-        parts = sorted(path.glob("metrics*.mcap"))
+        parts = metrics_parts(path)
         print(f"{path}: {len(parts)} metrics file(s) read as one run: {', '.join(p.name for p in parts) or 'none'}")
         print(format_summary(summarize(training_scalars(path))))
         return
@@ -33,7 +33,7 @@ def summary(
 def _print_file_summary(file: Path) -> None:
     from datetime import UTC, datetime
 
-    from mapush.logging.mcap_files import iter_json
+    from mapush.logging.mcap_files import file_scalars
     from mapush.logging.mcap_files import summary as read_summary
     from mapush.logging.scalars import format_summary, summarize
 
@@ -51,9 +51,7 @@ def _print_file_summary(file: Path) -> None:
     for kind in ("metadata", "attachments"):
         if info[kind]:
             print(f"{kind}: {', '.join(info[kind])}")
-    scalars: dict[str, dict[int, float]] = {}
-    for topic, _, data in iter_json(file, "/metrics/"):
-        scalars.setdefault(topic.removeprefix("/metrics/"), {})[int(data["iteration"])] = float(data["value"])
+    scalars = file_scalars(file)
     if scalars:
         print(format_summary(summarize(scalars)))
 

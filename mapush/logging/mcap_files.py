@@ -167,17 +167,30 @@ def _part_number(path: Path) -> int:
     return int(middle[0]) if middle and middle[0].isdigit() else 0
 
 
+def metrics_parts(run_dir: Path) -> list[Path]:
+    """A run's metrics files in the order they were written: `metrics.mcap`, then each resume's part."""
+    return sorted(Path(run_dir).glob("metrics*.mcap"), key=_part_number)
+
+
+def file_scalars(path: Path, prefix: str = "", into: dict | None = None) -> dict[str, dict[int, float]]:
+    """The training scalars of one metrics file (whose tag starts with `prefix`), `{tag: {iteration: value}}`,
+    added to `into` where given (an iteration it holds already is replaced)."""
+    scalars = {} if into is None else into
+    for topic, _, data in iter_json(path, "/metrics/" + prefix):
+        scalars.setdefault(topic.removeprefix("/metrics/"), {})[int(data["iteration"])] = float(data["value"])
+    return scalars
+
+
 def training_scalars(run_dir: Path, prefix: str = "") -> dict[str, dict[int, float]]:
     """Every training scalar of a run (whose tag starts with `prefix`), `{tag: {iteration: value}}`, over
     `metrics.mcap` and its resumed parts.
 
     A resumed run repeats the iterations between its last checkpoint and the cut; the later file wins.
     """
-    files = sorted(Path(run_dir).glob("metrics*.mcap"), key=_part_number)
+    files = metrics_parts(run_dir)
     if not files:
         raise BadInput(f"{str(run_dir)!r} has no metrics.mcap; valid: a run dir made by `mapush train`")
     scalars: dict[str, dict[int, float]] = {}
     for path in files:
-        for topic, _, data in iter_json(path, "/metrics/" + prefix):
-            scalars.setdefault(topic.removeprefix("/metrics/"), {})[int(data["iteration"])] = float(data["value"])
+        file_scalars(path, prefix, into=scalars)
     return scalars

@@ -78,14 +78,18 @@ class MapushRunner(OnPolicyRunner):
     def readouts(self) -> dict:
         """What the logged means are computed over (the logger's windows, the env's success window): kept in
         every checkpoint, so that a resumed run's readouts go on where the checkpoint left them."""
-        outcomes = getattr(getattr(self.env, "env", None), "outcomes", None)
+        outcomes = self._outcomes()
         return {"logger": self.logger.readouts(), "env": outcomes.readouts() if outcomes is not None else None}
+
+    def _outcomes(self):
+        """The wrapped env's episode outcomes (`EpisodeOutcomes`), None for an env without them."""
+        return getattr(getattr(self.env, "env", None), "outcomes", None)
 
     def restore_readouts(self, saved: dict) -> None:
         """Continue a checkpoint's readouts (`readouts`); the episodes this process starts part-way through then
         stay out of them (`AgentRowsVecEnv.count_whole_only`)."""
         self.logger.restore(saved["logger"])
-        outcomes = getattr(getattr(self.env, "env", None), "outcomes", None)
+        outcomes = self._outcomes()
         if outcomes is not None and saved.get("env"):
             outcomes.restore(saved["env"])
         if hasattr(self.env, "count_whole_only"):
