@@ -98,18 +98,26 @@ class Finding:
     """One thing a table says about its cells, as data: `text` (the statement with its numbers, as the Markdown
     lists it), whether it `holds` (True or False for a claim, the paper's or a budget rule's; None for a reading that
     claims nothing, or a comparison within the seeds' spread) and the `numbers` it rests on, by name (the sidecar
-    JSON keeps all three). The main table compares means: its claims ignore the spread."""
+    JSON keeps all three). The main table compares means: its claims ignore the spread.
+
+    A declared table's claim (`declared.py`) says more: the `claim` it judges, its `op` (">", "<", ">=", "<=")
+    and what each side of `numbers` is (`names`: "left", "right"; "" for a plain number); a side missing from
+    `numbers` was not measured. The sidecar keeps them for such a finding only."""
 
     text: str
     holds: bool | None = None
     numbers: dict[str, float] = field(default_factory=dict)
+    claim: str = ""
+    op: str = ""
+    names: dict[str, str] = field(default_factory=dict)
 
     def __str__(self) -> str:
         return self.text
 
     def record(self) -> dict:
         """The finding in the sidecar JSON."""
-        return {"text": self.text, "holds": self.holds, "numbers": self.numbers}
+        declared = {"claim": self.claim, "op": self.op, "names": self.names} if self.claim else {}
+        return {"text": self.text, "holds": self.holds, "numbers": self.numbers, **declared}
 
 
 @dataclass

@@ -6,7 +6,8 @@ archive of results that `mapush archive` keeps in git, `results/jobs/`); its sid
 with the reason. The paper's numbers (`paper.yaml`) stand beside ours where the paper has them.
 
 One module builds each table (`main_table.py`, `ocb_table.py`, `scale_table.py`, `team_table.py`, from the cells of
-`cells.py`); this one writes them all in every format (`BUILDERS`).
+`cells.py`), or one file declares it (`declared/*.yaml`, built by `declared.py`); this one writes them all in every
+format (`BUILDERS`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 
 from mapush.atomic import write_json, write_text
 from mapush.experiments.archive import check_results, load_results
-from mapush.report import curve_findings, plots
+from mapush.report import curve_findings, declared, plots
 from mapush.report.cells import matching, setup_of
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
@@ -36,6 +37,8 @@ BUILDERS = {
 """Each table `mapush tables` writes, by the `table` its experiment names (the ladder: by none, it reads the main
 table's, the scalability study's and the OCB ablation's jobs); a builder returns None for a variant that makes no
 table of its own."""
+BUILDERS.update(declared.builders(taken=tuple(BUILDERS)))
+"""And each table declared in `declared/*.yaml`, by its `name` (`declared.py`): at the quick budget, as the ladder."""
 SUMMARY_PLOTS = {"scale": plots.scale_plot, "team": plots.team_plot, "ladder": plots.ladder_plot}
 """The tables drawn as a figure of their own (`<table>.png`) besides their learning curves."""
 

@@ -1,0 +1,109 @@
+"""A table declared in one YAML file (`mapush/report/declared.py`): a toy declaration over jobs made here by hand,
+its claim judged on known numbers; malformed declarations refused in one line."""
+
+from __future__ import annotations
+
+import pytest
+
+from mapush.errors import BadInput
+from mapush.experiments.results import JobResult
+from mapush.report import declared
+from mapush.report.formats import markdown, sidecar
+
+TOY = """\
+name: toy
+title: Toy
+row_header: [Method]
+jobs: {table: main}
+rows:
+  - {id: sa, label: SA, match: {method: sa}}
+  - {id: ours, label: Ours, match: {method: ours}}
+columns:
+  - {id: sr, label: "S.R. (%)", eval: main, metric: success_rate, scale: 100, paper: {ours: [77.5, 3.0]}}
+note: A toy.
+claims:
+  - claim: Ours beats SA
+    compare: {left: {row: ours, column: sr}, op: ">", right: {row: sa, column: sr}}
+  - claim: SA stays under 25 %
+    compare: {left: {row: sa, column: sr}, op: "<", right: 25}
+"""
+
+
+def job(method: str, seed: int, rate: float, table: str = "main") -> JobResult:
+    return JobResult(table=table, variant="quick", method=method, task="cuboid", seed=seed,
+                     evals={"main": {"success_rate": rate}}, job_dir=f"{method}{seed}")  # fmt: skip
+
+
+def toy(tmp_path, text: str = TOY):
+    path = tmp_path / "toy.yaml"
+    path.write_text(text)
+    return declared.builders(tmp_path)["toy"]
+
+
+def claims(table) -> dict:
+    return {f.claim: f for f in table.findings}
+
+
+def test_a_declared_claim_holds_with_the_numbers_it_compares(tmp_path):
+    made = [job("ours", 0, 0.8), job("ours", 1, 0.6), job("sa", 0, 0.1), job("sa", 1, 0.3), job("ours", 0, 0.0, "x")]
+    table = toy(tmp_path)(made, "quick")
+    assert table.name == "toy_quick" and table.columns == ["S.R. (%)"] and not table.missing
+    assert [(labels, cells[0].mean) for labels, cells in table.rows] == [(["SA"], 20.0), (["Ours"], 70.0)]
+    assert table.rows[1][1][0].sources == ["ours0", "ours1"]  # not the other table's job
+    beats, under = claims(table)["Ours beats SA"], claims(table)["SA stays under 25 %"]
+    assert (beats.holds, beats.op, beats.numbers) == (True, ">", {"left": 70.0, "right": 20.0})
+    assert (under.holds, under.numbers) == (True, {"left": 20.0, "right": 25.0})
+    assert sidecar(table)["findings"][0]["claim"] == "Ours beats SA"
+    assert "(77.5 \u00b1 3.0)" in markdown(table)
+
+
+def test_a_declared_claim_that_does_not_hold(tmp_path):
+    made = [job("ours", 0, 0.2), job("sa", 0, 0.5), job("sa", 1, 0.3)]
+    table = toy(tmp_path)(made, "quick")
+    beats, under = claims(table)["Ours beats SA"], claims(table)["SA stays under 25 %"]
+    assert (beats.holds, beats.numbers) == (False, {"left": 20.0, "right": 40.0})
+    assert (under.holds, under.numbers) == (False, {"left": 40.0, "right": 25.0})
+
+
+def test_a_claim_on_an_empty_cell_is_not_measured(tmp_path):
+    table = toy(tmp_path)([job("sa", 0, 0.1)], "quick")
+    beats = claims(table)["Ours beats SA"]
+    assert (beats.holds, beats.numbers) == (None, {"right": 10.0})
+    assert table.missing == ["Ours / S.R. (%): no finished job"]
+    assert claims(toy(tmp_path)([job("sa", 0, 0.1)], "long")).get("SA stays under 25 %").holds is None
+
+
+def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
+    from mapush.report.tables import BUILDERS
+
+    names = {declared.load(path)["name"] for path in declared.FOLDER.glob("*.yaml")}
+    assert names and names <= set(BUILDERS)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "said"),
+    [
+        ("note: A toy.", "notes: A toy.", "unknown key 'notes'; valid: claims, columns, jobs, name, note, row_header"),
+        ('op: ">"', 'op: "beats"', "unknown 'beats'; valid: >, <, >=, <="),
+        ("eval: main,", "eval: mian,", "column 'sr' eval: unknown 'mian'; valid: "),
+        ("metric: success_rate", "metric: succes", "unknown 'succes'; valid: success_rate, completion_time"),
+        ("{method: sa}", "{methd: sa}", "unknown key 'methd'; valid: budget, experiment, lowlevel, method"),
+        ("right: 25", "right: {row: sa, column: ct}", "right column: unknown 'ct'; valid: sr"),
+    ],
+)
+def test_a_malformed_declaration_is_refused_in_one_line_naming_the_choices(tmp_path, old, new, said):
+    assert old in TOY
+    with pytest.raises(BadInput) as refused:
+        toy(tmp_path, TOY.replace(old, new))
+    assert said in str(refused.value) and "\n" not in str(refused.value)
+    assert str(refused.value).startswith("toy.yaml")
+
+
+def test_a_name_already_taken_is_refused(tmp_path):
+    (tmp_path / "again.yaml").write_text(TOY)
+    with pytest.raises(BadInput, match="'toy' is taken"):
+        toy(tmp_path)
+    (tmp_path / "again.yaml").unlink()
+    (tmp_path / "toy.yaml").write_text(TOY.replace("name: toy", "name: main"))
+    with pytest.raises(BadInput, match="'main' is taken"):
+        declared.builders(tmp_path, taken=("main",))
