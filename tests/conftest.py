@@ -56,6 +56,14 @@ def _run_cli(args: list[str], cwd: Path, timeout: float = 240) -> subprocess.Com
     return subprocess.run([*MAPUSH, *map(str, args)], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def own_cache(tmp_path_factory):
+    """The tests' own mapush cache dir (remembered sweep plans): never the user's, and empty when they start."""
+    from mapush.experiments.plan_memo import CACHE_ENV
+
+    os.environ[CACHE_ENV] = str(tmp_path_factory.mktemp("cache"))
+
+
 @pytest.fixture(scope="session")
 def run_cli():
     """`run_cli(args, cwd)`: the real `mapush` command, for fixtures wider than one test."""

@@ -178,7 +178,7 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
     file of the mapush package (its configs, code and shipped policies) with the versions of Hydra and
     OmegaConf. A job whose runs are here is checked each time (its run configs are among what it depends on);
     what the memo holds of it is kept for a machine without them."""
-    package = _package_digest()
+    package = composing_digest()
     earlier = _read_memo(memo)
     kept, records = {}, {}
     for r in results:
@@ -190,9 +190,9 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
             continue
         store = Path(r.job_dir).parent.parent
         if store not in records:
-            records[store] = _digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
+            records[store] = files_digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
         key = hashlib.sha256(
-            "\n".join([package, records[store], _digest([Path(r.job_dir) / RESULT], store)]).encode()
+            "\n".join([package, records[store], files_digest([Path(r.job_dir) / RESULT], store)]).encode()
         ).hexdigest()
         found = earlier.get(name)
         change = Change.from_record(found["change"]) if found and found["key"] == key else made_otherwise(r)
@@ -226,7 +226,7 @@ def _read_memo(memo: Path | None) -> dict:
         return {}
 
 
-def _digest(paths: list[Path], base: Path) -> str:
+def files_digest(paths: list[Path], base: Path) -> str:
     """One hash of the files' names (relative to `base`) and bytes."""
     digest = hashlib.sha256()
     for path in paths:
@@ -241,7 +241,7 @@ the experiments never import. A change to them leaves what was found of an archi
 
 
 @functools.cache
-def _package_digest() -> str:
+def composing_digest() -> str:
     """One hash of every file of the mapush package that composing a job can read (code, configs, shipped
     policies: all but `NOT_COMPOSING`) and of the versions of the libraries that compose its configs."""
     package = Path(__file__).resolve().parents[1]
@@ -250,7 +250,7 @@ def _package_digest() -> str:
         p for p in package.rglob("*")
         if p.is_file() and "__pycache__" not in p.parts and not any(p == s or s in p.parents for s in skipped)
     )  # fmt: skip
-    return f"hydra {hydra.__version__} omegaconf {omegaconf.__version__} {_digest(files, package)}"
+    return f"hydra {hydra.__version__} omegaconf {omegaconf.__version__} {files_digest(files, package)}"
 
 
 def made_otherwise(result: JobResult) -> Change | None:

@@ -172,7 +172,7 @@ def trained_under(run: DictConfig) -> dict:
 
 def _job_result(cfg: DictConfig, job_dir: Path, **made) -> JobResult:
     """The result of the job `cfg` composes, in `job_dir`, with what it `made` (stages, evaluations, curves, cost)."""
-    return JobResult(
+    result = JobResult(
         experiment=cfg.experiment.name,
         table=cfg.experiment.table,
         budget=cfg.budget,
@@ -186,6 +186,12 @@ def _job_result(cfg: DictConfig, job_dir: Path, **made) -> JobResult:
         job_dir=str(job_dir),
         **made,
     )
+    result.object_physics()  # the object and one robot, as its stages' records hold them (`job_physics`)
+    for name, record in result.evals.items():
+        mass = result.object_mass(name)
+        if mass is not None:
+            record["object_mass_kg"] = mass
+    return result
 
 
 def _taken(cfg: DictConfig, job_dir: Path, other: JobResult, evals: dict, curve: dict | None) -> JobResult:

@@ -12,6 +12,7 @@ from typing import Literal
 from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
+from mapush.experiments.job_physics import ObjectPhysics, evaluated_mass, physics_from_stages
 from mapush.migrations import stamp, upgrade
 from mapush.records import check_schema, read_json
 
@@ -46,11 +47,16 @@ CURVE = _record(
     },
     ("points",),
 )
+PAIR = {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 2}
+PHYSICS = _record(
+    {"mass_kg": NUMBER, "friction": PAIR, "mass_range_kg": _nullable(PAIR), "robot_capacity_n": _nullable(NUMBER)},
+    ("mass_kg", "friction"),
+)
 EVENT = _record({"episode_share": NUMBER, "per_episode": NUMBER}, ("episode_share",))
 EVAL = _record(
     {
         **dict.fromkeys(("success_rate", "completion_time", "completion_time_s", "timeout_s", "path_length_m"), NUMBER),
-        **dict.fromkeys(("success_rate_std", "completion_time_std"), NUMBER),
+        **dict.fromkeys(("success_rate_std", "completion_time_std", "object_mass_kg"), NUMBER),
         "exceptions": {"type": "object", "additionalProperties": NUMBER},
         "events": {"type": "object", "additionalProperties": EVENT},
         "episodes": INTEGER,
@@ -76,6 +82,7 @@ RECORD = _record(
         "stage_curves": _nullable({"type": "object", "additionalProperties": _nullable(CURVE)}),
         "eval_wall_s": _nullable(NUMBER),
         **dict.fromkeys(("threads", "machine_cores"), _nullable(INTEGER)),
+        "physics": _nullable(PHYSICS),
     }
 )
 """What the tables read of a result (`read_result`), as JSON Schema: each field's type (its numbers are finite:
@@ -155,6 +162,7 @@ class JobResult:
     supersedes: str | None = None  # the earlier result this one replaced (`SUPERSEDED`), beside it
     archived_from: str | None = None  # the job dir `mapush archive` copied it from
     taken_from: str | None = None  # another sweep's job of the same stages and evaluations, this one's source
+    physics: ObjectPhysics | None = None  # its object and one robot (`job_physics`); None: made before recorded
     # not in the file: where it was read, and what `mapush tables` found of it against its experiment now
     job_dir: str = field(default="", metadata={"in_file": False})
     made_otherwise: Change | None = field(default=None, metadata={"in_file": False})
@@ -166,16 +174,37 @@ class JobResult:
         unknown = sorted(set(record) - names - {"format_version"})
         if unknown:
             raise BadInput(f"result in {job_dir or 'a record'} has unknown fields {unknown}; valid: {sorted(names)}")
-        return cls(**{k: v for k, v in record.items() if k in names}, job_dir=str(job_dir))
+        fields = {k: v for k, v in record.items() if k in names}
+        fields["physics"] = ObjectPhysics.from_record(record.get("physics"))
+        return cls(**fields, job_dir=str(job_dir))
 
     def record(self) -> dict:
         """The file's content: its fields in order, the optional ones only when set."""
         optional = {"stage_curves", "eval_wall_s", "supersedes", "archived_from", "taken_from", "rules", "lowlevel"}
-        return {
+        optional.add("physics")
+        record = {
             f.name: getattr(self, f.name)
             for f in dataclasses.fields(self)
             if f.metadata.get("in_file", True) and not (f.name in optional and getattr(self, f.name) is None)
         }
+        if self.physics is not None:
+            record["physics"] = self.physics.record()
+        return record
+
+    def object_physics(self) -> ObjectPhysics | None:
+        """Its object and one robot: as recorded, else (a job made before jobs recorded them) from its stages'
+        records (`job_physics.physics_from_stages`); None where neither holds them."""
+        if self.physics is None:
+            self.physics = physics_from_stages(self)
+        return self.physics
+
+    def object_mass(self, name: str) -> float | None:
+        """kg; the object's mass in its evaluation `name`: as recorded, else from its physics and the evaluation's
+        overrides (`job_physics.evaluated_mass`); None where neither is known."""
+        record, physics = self.evals.get(name), self.object_physics()
+        if record is None or "object_mass_kg" in record or physics is None:
+            return None if record is None else record.get("object_mass_kg")
+        return evaluated_mass(physics, record.get("overrides", []))
 
     def evaluated_stage(self, name: str) -> str | None:
         """The stage whose run its evaluation `name` loaded the checkpoint from, None when none is named."""

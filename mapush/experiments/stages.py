@@ -101,7 +101,7 @@ def shorter_twin(sweep_root: Path, cfg: dict, overrides: list[str], identities: 
     refs = [(o.partition("=")[0], o.partition("=")[2][len(STAGE_REF) :]) for o in overrides if is_ref(o)]
     found: tuple[int, Path] | None = None
     for record in sorted((Path(sweep_root) / STORE).glob(f"*/{IDENTITY_FILE}")):
-        other = _record(record).get("config")
+        other = stage_record(record).get("config")
         if not other or shape(other) != shape(cfg) or not int(other["train"]["iterations"]) < iterations:
             continue
         paths = {name: OmegaConf.select(OmegaConf.create(other), key) for key, name in refs}
@@ -156,7 +156,7 @@ def stands_for(sweep_root: Path, key: str) -> list[str]:
     while key and key not in found:
         found.append(key)
         record = stage_dir(sweep_root, key) / IDENTITY_FILE
-        key = (_record(record).get("adopted_from") or {}).get("identity") if record.is_file() else None
+        key = (stage_record(record).get("adopted_from") or {}).get("identity") if record.is_file() else None
     return found
 
 
@@ -210,12 +210,12 @@ def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:
 
 def read_identity(record: Path) -> dict:
     """A stage's `stage.yaml` (`write_identity`) as today's form, plain (a copy the caller may change)."""
-    return copy.deepcopy(_record(record))
+    return copy.deepcopy(stage_record(record))
 
 
-def _record(record: Path) -> dict:
-    """`read_identity`, shared: a table reads each of hundreds of records many times, so each is parsed once
-    while its file stays as it is (its path, size and modification time)."""
+def stage_record(record: Path) -> dict:
+    """`read_identity`, shared (read it, do not change it): a table reads each of hundreds of records many times,
+    so each is parsed once while its file stays as it is (its path, size and modification time)."""
     found = os.stat(record)
     return _parsed_record(str(Path(record).resolve()), found.st_size, found.st_mtime_ns)
 

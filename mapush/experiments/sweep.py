@@ -151,6 +151,7 @@ def _estimate_line(to_train: list[dict]) -> str:
 def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:
     """Launch the multirun; returns the sweep dir, the finished job dirs and the failed job dirs."""
     full = sweep_overrides(overrides)
+    planned_jobs(full)  # remembered (`plan_memo`): a dry run of this sweep, finished or not, answers in seconds
     os.environ[SWEEP_PID] = str(os.getpid())  # the workers it starts exit with it
     argv = sys.argv
     sys.argv = [argv[0], "--multirun", *full]

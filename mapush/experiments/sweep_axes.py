@@ -8,7 +8,6 @@ stages. `sweep.py` launches them, or (`--dry-run`) prints what they would train.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -17,7 +16,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import CONF_DIR, compose_config, group_file, group_options, overrides_name, search_dirs, to_plain
 from mapush.errors import BadInput, first_line
-from mapush.experiments import stages
+from mapush.experiments import plan_memo, stages
 from mapush.experiments.results import every_stage_override
 from mapush.experiments.stage_plan import PlannedStage, budget_of, planned_stages, stages_with_overrides
 
@@ -80,7 +79,8 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     for key, values in axes.items():
         if key not in given:
             full.append(f"{key}={','.join(str(v) for v in values)}")
-    _check_jobs(full)
+    if plan_memo.recall(full) is None:  # a remembered plan was composed and checked as it stands now
+        _check_jobs(full)
     return full
 
 
@@ -187,8 +187,12 @@ class PlannedJob:
         return ",".join(sorted(o for o in self.combo if o.partition("=")[0] not in unnamed and not is_searchpath(o)))
 
 
-def planned_jobs(full: list[str]) -> Iterator[PlannedJob]:
-    """Every job of the sweep of `full` (as `sweep_overrides` returns it), composed and planned, in sweep order."""
-    for combo in job_combos(full):
-        cfg = compose_config(combo, config_name="sweep")
-        yield PlannedJob(combo, cfg, planned_stages(cfg))
+def planned_jobs(full: list[str]) -> list[PlannedJob]:
+    """Every job of the sweep of `full` (as `sweep_overrides` returns it), composed and planned, in sweep order;
+    remembered for the next time (`plan_memo`)."""
+    plan = plan_memo.recall(full)
+    if plan is None:
+        plan = [(combo, cfg, planned_stages(cfg)) for combo in job_combos(full)
+                for cfg in [compose_config(combo, config_name="sweep")]]  # fmt: skip
+        plan_memo.remember(full, plan)
+    return [PlannedJob(combo, cfg, planned) for combo, cfg, planned in plan]

@@ -8,7 +8,7 @@ import numpy as np
 import yaml
 
 from mapush.config import group_file
-from mapush.experiments.results import JobResult, searchpath_overrides
+from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.formats import Cell, Finding, counted, significant
 
@@ -40,11 +40,6 @@ def setup_of(results: list[JobResult]) -> str:
 def matching(results: list[JobResult], **match) -> list[JobResult]:
     """The results whose fields have the values `match` gives (e.g. `method="ours", task="cuboid"`)."""
     return [r for r in results if all(getattr(r, k) == v for k, v in match.items())]
-
-
-def searchpaths(results: list[JobResult]) -> list[str]:
-    """The `hydra.searchpath` overrides the jobs of `results` composed their stages with (to find a task of yours)."""
-    return sorted({o for r in results for o in searchpath_overrides(r.overrides)})
 
 
 def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cell:

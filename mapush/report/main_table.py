@@ -10,9 +10,9 @@ from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import PAPER, collect, events_finding, exception_shares, matching, named_shares, searchpaths
+from mapush.report.cells import PAPER, collect, events_finding, exception_shares, matching, named_shares
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
-from mapush.report.physics import team_needed
+from mapush.report.physics import known_physics, team_needed
 
 EXTRA_COLUMNS = {
     (method, name): f"{PAPER['main']['labels'][method]}, {spec.column}"
@@ -149,8 +149,8 @@ def _baselines(mine: list[JobResult], paper: dict, task: str, sr: dict, mean: fl
     if sr.get("sa"):
         sa = float(np.mean(sr["sa"]))
         verdict = "below" if sa < mean else "at or above"
-        found_at = searchpaths(matching(mine, task=task))  # a task of yours: where its jobs found it
-        need, forces = team_needed(task, found_at)
+        physics = known_physics(matching(mine, method="sa", task=task))  # one robot on the object, as it trained
+        need, forces = team_needed(physics) if physics else ("drag not recorded", {})
         text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {need}"
         lines.append(Finding(text, sa < mean, {"sa_sr": sa, "ours_sr": mean, **forces}))
     return lines

@@ -8,32 +8,25 @@ from __future__ import annotations
 import numpy as np
 
 from mapush.config import group_file
+from mapush.experiments.job_physics import besides_mass, sets_mass
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import collect, matching, named_shares, record_shares
 from mapush.report.formats import ALONE, OVER_SEEDS, Finding, Table, counted
-from mapush.report.physics import object_drag, object_mass, one_robot_capacity
+from mapush.report.physics import capacity_margin, known_physics
 
 TEAM = group_file("experiment", "team")
-MASS = "task.object.mass"  # the key that sets an object's mass (and with `_range`, draws it per episode)
 
 
-def eval_masses() -> dict[str, float]:
-    """Each evaluation of the study and the object mass (kg) it sets (`task.object.mass=M` among its overrides)."""
-    return {name: float(given[MASS]) for name, spec in TEAM.evals.items() if MASS in (given := _given(spec.overrides))}
-
-
-def _given(overrides) -> dict[str, str]:
-    """`key=value` overrides as a dict of their values, as written."""
-    return dict(str(o).partition("=")[::2] for o in overrides)
-
-
-def capacity_margin(task: str, mass: float, robots: int, capacity: float | None) -> float | None:
-    """The object's drag at `mass` (the middle of its friction range) over `robots` x one robot's `capacity`."""
-    if not capacity:
-        return None
-    low, high = object_drag(task, mass=mass)
-    return (low + high) / 2 / (robots * capacity)
+def eval_masses(results: list[JobResult]) -> dict[str, float]:
+    """Each evaluation of the study and the object mass (kg) it set, as its jobs recorded it (`object_mass`); an
+    evaluation no job made is left out."""
+    masses = {}
+    for name in TEAM.evals:
+        mass = next((m for m in (r.object_mass(name) for r in results) if m is not None), None)
+        if mass is not None:
+            masses[name] = mass
+    return masses
 
 
 def team_table(results: list[JobResult], variant: str) -> Table | None:
@@ -44,9 +37,10 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
     mine = matching(results, table="team", variant=variant)
     if mine and all(fixed_mass(r) is not None for r in mine):
         return None
-    masses = eval_masses()
-    capacity = one_robot_capacity()
     alone = _made_as(results, mine)
+    masses = eval_masses(mine + alone)
+    physics = {task: known_physics(matching(mine + alone, task=task)) for task in TEAM.sweep.task}
+    capacity = next((p.robot_capacity_n for p in physics.values() if p is not None), None)
     rows, ranged_rows, alone_rows, missing, drawn, lines, records, alone_lines = [], [], [], [], [], {}, {}, {}
     for task in TEAM.sweep.task:
         for n in TEAM.sweep.agents:
@@ -60,7 +54,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
             drawn_alone = all(cell.values for cell in each)
             cells = each if drawn_alone else ranged
             for cell, (name, mass) in zip(cells, masses.items(), strict=True):
-                margin = capacity_margin(task, mass, n, capacity)
+                margin = physics[task] and capacity_margin(physics[task], mass, n)
                 cell.note = f"margin {margin:.2f}" if margin is not None else ""
                 cell.note += f" {ALONE}" if drawn_alone else ""
                 if jobs and not cell.values:
@@ -79,7 +73,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
             alone_rows.append(([task, str(n)], each))
     findings = _findings(rows, masses) + _exception_findings(records)
     findings += _one_mass_findings(results, variant, ranged_rows, mine, masses)
-    findings += _fixed_mass_findings(alone_rows, ranged_rows, masses)
+    findings += _fixed_mass_findings(alone_rows, ranged_rows, masses, _range_text(mine))
     findings += curve_findings.budget_findings(lines) + curve_findings.budget_findings(alone_lines)
     alone_text = (
         f" {ALONE}: one policy per mass, trained at that mass alone, where the study trained the robot count at every "
@@ -93,7 +87,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
         rows,
         missing,
         "The mid level alone on its 20 s pushes, one policy per robot count trained over masses of "
-        f"{_range_text()} and evaluated at each mass; {OVER_SEEDS}. Margin: the object's "
+        f"{_range_text(mine)} and evaluated at each mass; {OVER_SEEDS}. Margin: the object's "
         f"drag (mass x g x its mean friction) over the robots' summed push capacity ({capacity or 0:.1f} N each, the "
         "calibrated tracker's): above 1 the team cannot move it even all pushing at once."
         + (alone_text if drawn else ""),
@@ -109,9 +103,10 @@ def _curve_eval(result: JobResult) -> str | None:
     return (result.curve or {}).get("eval")
 
 
-def _range_text() -> str:
-    override = next(o for o in TEAM.overrides if str(o).startswith(f"{MASS}_range="))
-    return str(override).partition("=")[2].replace(",", "-").strip("[]") + " kg"
+def _range_text(mine: list[JobResult]) -> str:
+    """The mass range (kg) the study's jobs trained over, as they recorded it."""
+    ranged = next((p.mass_range_kg for p in (r.object_physics() for r in mine) if p and p.mass_range_kg), None)
+    return "an unrecorded range" if ranged is None else f"{ranged[0]}-{ranged[1]} kg"
 
 
 def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
@@ -167,14 +162,17 @@ def _one_mass_findings(
     than the seeds' spread, a cell measures how the range trains as well as what a team needs."""
     found = []
     for (task, n), cells in rows:
-        own, evaluated = object_mass(task), list(masses.values())
+        references = _one_mass_references(results, variant, task, int(n))
+        own_physics = known_physics(references)  # trained at the object's own mass
+        if own_physics is None:
+            continue
+        own, evaluated = own_physics.mass_kg, list(masses.values())
         below = max((m for m in evaluated if m <= own), default=None)
         above = min((m for m in evaluated if m >= own), default=None)
         near = [k for k, mass in enumerate(evaluated) if mass in (below, above) and cells[k].values]
         jobs = matching(mine, task=task, num_agents=int(n))
         budgets = [r.curve["points"][-1]["env_steps"] for r in jobs if r.curve and r.curve["points"]]
-        references = _one_mass_references(results, variant, task, int(n))
-        if not near or not budgets or not references:
+        if not near or not budgets:
             continue
         budget = max(budgets)
         steps, rates, spreads = curve_findings.mean_curve(curve_findings.seed_curves(references, "mid"))
@@ -184,7 +182,7 @@ def _one_mass_findings(
         at = ", ".join(f"{cells[k].mean:.1f} % at {evaluated[k]:g} kg" for k in near)
         by = ", ".join(sorted({f"{r.table} {r.method_label or r.method}" for r in references}))
         text = (
-            f"{task} / {counted(int(n), 'robot')}: trained over {_range_text()}, {at} after {budget / 1e6:.1f}M "
+            f"{task} / {counted(int(n), 'robot')}: trained over {_range_text(mine)}, {at} after {budget / 1e6:.1f}M "
             f"env-steps; trained at its own {own:g} kg ({by}, {counted(len(references), 'seed')}), "
             f"{mean:.1f} \u00b1 {std:.1f} % there at {at_steps / 1e6:.1f}M"
         )
@@ -209,7 +207,7 @@ def _one_mass_references(results: list[JobResult], variant: str, task: str, robo
     for r in matching(results, variant=variant, task=task, num_agents=robots):
         if r.table == "team" or "mid" not in (r.stage_curves or {}) or curve_findings.curve_made_otherwise(r, "mid"):
             continue
-        if any(str(o).startswith(MASS) for o in r.overrides):
+        if any(sets_mass(str(o)) for o in r.overrides):  # trained at another mass
             continue
         picked.setdefault(r.stages.get("mid") or r.job_dir, r)
     return list(picked.values())
@@ -218,27 +216,26 @@ def _one_mass_references(results: list[JobResult], variant: str, task: str, robo
 def fixed_mass(result: JobResult) -> float | None:
     """The one mass (kg) a team job's policy trained at, where its sweep set it (`task.object.mass_range=null
     task.object.mass=M` among the stage overrides); None for the study's own jobs, trained over the range."""
-    given = _given(result.overrides)
-    if given.get(f"{MASS}_range") != "null" or MASS not in given:
+    physics = result.object_physics()
+    if physics is None or physics.mass_range_kg is not None:
         return None
-    return float(given[MASS])
-
-
-def _besides_mass(result: JobResult) -> tuple[str, ...]:
-    """A job's stage overrides other than those of the object's mass."""
-    return tuple(sorted(str(o) for o in result.overrides if not str(o).startswith(MASS)))
+    return physics.mass_kg
 
 
 def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]:
     """The team jobs trained at one evaluated mass alone and made as the study's own jobs, the mass apart (same
     budget, same other overrides): the study's design check."""
-    made = {(r.budget, _besides_mass(r)) for r in mine}
+    made = {(r.budget, besides_mass(r.overrides)) for r in mine}
     return [
-        r for r in results if r.table == "team" and fixed_mass(r) is not None and (r.budget, _besides_mass(r)) in made
+        r
+        for r in results
+        if r.table == "team" and fixed_mass(r) is not None and (r.budget, besides_mass(r.overrides)) in made
     ]
 
 
-def _fixed_mass_findings(alone_rows: list, ranged_rows: list, masses: dict[str, float]) -> list[Finding]:
+def _fixed_mass_findings(
+    alone_rows: list, ranged_rows: list, masses: dict[str, float], range_text: str
+) -> list[Finding]:
     """The study's design checked directly where a sweep trained the same robots at one of the evaluated masses
     alone (`mapush sweep experiment=team agents=1 task.object.mass_range=null task.object.mass=8.0`): the same
     budget and the same evaluation at that mass, the range's policy against the one-mass policy (`team_table`'s
@@ -249,7 +246,7 @@ def _fixed_mass_findings(alone_rows: list, ranged_rows: list, masses: dict[str, 
             if not one.values or not ranged.values:
                 continue
             text = (
-                f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {_range_text()}, "
+                f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {range_text}, "
                 f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {mass:g} kg alone "
                 f"({counted(len(one.values), 'seed')}), {one.mean:.1f} \u00b1 {one.std:.1f} %"
             )

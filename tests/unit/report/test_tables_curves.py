@@ -13,11 +13,23 @@ import numpy as np
 import pytest
 
 from mapush.eval.curve_points import tail_gain
+from mapush.experiments.job_physics import ObjectPhysics
 from mapush.experiments.results import RESULT, Change, JobResult
 from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, csv_text, latex, markdown, sidecar
-from mapush.report.physics import one_robot_capacity
 
 RULE = {"tail": 0.2, "max_gain": 0.03}
+RANGED = ObjectPhysics(mass_kg=4.0, friction=(0.2, 0.4), mass_range_kg=(2.0, 64.0), robot_capacity_n=50.0)
+"""A team-study job's object as its sweep records it: drawn over 2-64 kg in training."""
+
+
+def physics_of(overrides) -> ObjectPhysics:
+    """The physics a team job made with `overrides` records: one mass where they set it and turn the range off."""
+    if "task.object.mass_range=null" not in overrides:
+        return RANGED
+    mass = next(float(o.partition("=")[2]) for o in overrides if o.startswith("task.object.mass="))
+    return ObjectPhysics(mass_kg=mass, friction=RANGED.friction, robot_capacity_n=RANGED.robot_capacity_n)
+
+
 CURVES = {  # success at 1, 2, 3, 4, 5 M env-steps, per seed
     "ours": [[0.2, 0.5, 0.6, 0.7, 0.71], [0.3, 0.4, 0.55, 0.66, 0.68], [0.1, 0.2, 0.3, 0.6, 0.63]],
     "ours_no_ocb": [[0.1, 0.2, 0.3, 0.4, 0.45], [0.1, 0.3, 0.5, 0.5, 0.5], [0.0, 0.1, 0.1, 0.2, 0.3]],
@@ -187,9 +199,11 @@ def test_tables_can_write_one_table_and_refuse_an_unknown_one(cli, tmp_path, cur
 def test_the_main_tables_findings_from_hand_made_results():
     from mapush.report.main_table import PAPER, _main_findings
 
+    cuboid = ObjectPhysics(mass_kg=4.0, friction=(0.3, 0.35), robot_capacity_n=12.5)  # moved where it slides easily
+
     def job(method, seed, evals):
         ev = {k: {"success_rate": sr, "completion_time": ct, "timeout_s": 160.0} for k, (sr, ct) in evals.items()}
-        return JobResult(method=method, task="cuboid", seed=seed, evals=ev, job_dir=f"{method}{seed}")
+        return JobResult(method=method, task="cuboid", seed=seed, evals=ev, job_dir=f"{method}{seed}", physics=cuboid)
 
     results = [
         job("ours", 0, {"main": (0.80, 0.50), "path_only": (0.90, 0.45), "go1": (0.75, 0.6)}),
@@ -214,12 +228,11 @@ def test_the_main_tables_findings_from_hand_made_results():
     assert found[2].holds is False and found[2].numbers["M+L"] == pytest.approx(80.0)
     assert "at or above: M+L" in str(found[2])
     # SA (10 + 20) / 2 = 15 % below Ours, beside the drag (4 kg x 9.81 x the friction 0.3-0.35: 11.8-13.7 N)
-    capacity = one_robot_capacity()
     assert found[3].holds is True and found[3].numbers == pytest.approx(
-        {"sa_sr": 15.0, "ours_sr": 75.0, "drag_low_n": 11.77, "drag_high_n": 13.73, "capacity_n": capacity}, abs=0.01
+        {"sa_sr": 15.0, "ours_sr": 75.0, "drag_low_n": 11.77, "drag_high_n": 13.73, "capacity_n": 12.5}, abs=0.01
     )
-    alone = "can" if capacity >= 13.73 else "cannot"
-    assert f"drag 11.8-13.7 N against one robot's capacity {capacity:.1f} N: one robot {alone} move it" in str(found[3])
+    only_where = "one robot moves it only where the friction is low"
+    assert f"drag 11.8-13.7 N against one robot's capacity 12.5 N: {only_where}" in str(found[3])
     # H+L 0 % and H+L FT 50 % against the hand-written pusher's 45 %
     assert [(f.holds, f.numbers["learned_sr"]) for f in found[4:6]] == [(False, 0.0), (True, 50.0)]
     assert found[6].holds is False and found[6].numbers["gap_points"] == pytest.approx(-5.0)  # 75 - 80: path only
@@ -474,7 +487,6 @@ def test_the_scale_table_shows_the_share_of_episodes_a_fall_ended_per_robot_coun
 
 
 def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robots_that_push(tmp_path):
-    from mapush.report.physics import object_drag, one_robot_capacity
     from mapush.report.plots import team_plot
     from mapush.report.team_table import team_table
 
@@ -482,19 +494,18 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     rates = {1: (0.9, 0.9, 0.1, 0.0), 2: (0.9, 0.9, 0.8, 0.2), 3: (0.9, 0.9, 0.9, 0.3), 4: (0.8, 0.8, 0.9, 0.4)}
 
     def evals(made):
-        return {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 8, 24, 64), made, strict=True)}
+        return {f"m{m}": {"success_rate": sr, "object_mass_kg": m} for m, sr in zip((2, 8, 24, 64), made, strict=True)}
 
     results = [
         JobResult(job_dir=f"agents={n},seed={seed}", table="team", variant="quick", num_agents=n, seed=seed,
-                  task="cuboid", evals=evals(made))
+                  task="cuboid", evals=evals(made), physics=RANGED)
         for n, made in rates.items() for seed in (0, 1)
     ]  # fmt: skip
     table = team_table(results, "quick")
     assert table.columns == ["2 kg", "8 kg", "24 kg", "64 kg"]
     cells = dict((tuple(labels), cells) for labels, cells in table.rows)
-    low, high = object_drag("cuboid", ["task.object.mass=24"])
-    margin = (low + high) / 2 / (2 * one_robot_capacity())  # two robots at 24 kg
-    assert cells[("cuboid", "2")][2].text() == f"80.0 \u00b1 0.0 [margin {margin:.2f}]"
+    # two robots at 24 kg: 24 kg x 9.81 x the mean friction 0.3 / (2 x 50 N) = 0.71
+    assert cells[("cuboid", "2")][2].text() == "80.0 \u00b1 0.0 [margin 0.71]"
     assert cells[("cylinder", "3")][0].text().startswith("\u2014")  # no job: an empty cell
     assert "cylinder / 1 robot: no finished job" in table.missing
     partial = [dataclasses.replace(r, evals={k: v for k, v in r.evals.items() if k != "m64"}) if r.num_agents == 4
@@ -512,17 +523,17 @@ def test_the_team_table_says_what_ended_each_robot_counts_episodes_over_its_mass
     from mapush.report.team_table import team_table
 
     def evals(exceptions):  # the same exceptions at every mass but 64 kg, whose record names none
-        made = {f"m{m}": {"success_rate": 0.5, "exceptions": exceptions} for m in (2, 8, 24)}
-        return made | {"m64": {"success_rate": 0.0}}
+        made = {f"m{m}": {"success_rate": 0.5, "exceptions": exceptions, "object_mass_kg": m} for m in (2, 8, 24)}
+        return made | {"m64": {"success_rate": 0.0, "object_mass_kg": 64}}
 
     made = {1: {"robot_tilt": 0.3}, 3: {"robot_collision": 0.6, "robot_tilt": 0.0}, 4: {"robot_tilt": 0.0}}
     results = [
         JobResult(job_dir=f"agents={n},seed=0", table="team", variant="quick", num_agents=n, seed=0, task="cuboid",
-                  evals=evals(exceptions))
+                  evals=evals(exceptions), physics=RANGED)
         for n, exceptions in made.items()
     ] + [
         JobResult(job_dir="agents=1,seed=1", table="team", variant="quick", num_agents=1, seed=1, task="cuboid",
-                  evals=evals({"robot_collision": 0.1}))
+                  evals=evals({"robot_collision": 0.1}), physics=RANGED)
     ]  # fmt: skip
     found = next(f for f in team_table(results, "quick").findings if "ended by an exception" in str(f))
     # 1 robot: falls 30 % in seed 0 and none in seed 1: 15 %; collisions 5 %; 2 robots have no job
@@ -544,15 +555,17 @@ def test_the_team_table_weighs_a_policy_trained_over_the_masses_against_one_trai
 
     team = [  # one robot over 2-64 kg: 20 and 10 % at 2 and 8 kg (the cuboid's own 4 kg lies between), curve to 6M
         JobResult(job_dir=f"team,seed={seed}", table="team", variant="quick", num_agents=1, seed=seed, task="cuboid",
-                  evals={f"m{m}": {"success_rate": sr} for m, sr in ((2, 0.2), (8, 0.1), (24, 0.0), (64, 0.0))},
-                  curve=curve(0.1, 0.2, 0.2))
+                  evals={f"m{m}": {"success_rate": sr, "object_mass_kg": m}
+                         for m, sr in ((2, 0.2), (8, 0.1), (24, 0.0), (64, 0.0))},
+                  curve=curve(0.1, 0.2, 0.2), physics=RANGED)
         for seed in (0, 1)
     ]  # fmt: skip
 
     def one_mass(job_dir, run, rates, table="main", overrides=()):
         return JobResult(job_dir=job_dir, table=table, variant="quick", method="sa", method_label="SA", num_agents=1,
                          task="cuboid", stages={"mid": run}, overrides=list(overrides),
-                         stage_curves={"mid": curve(*rates)})  # fmt: skip
+                         stage_curves={"mid": curve(*rates)},
+                         physics=ObjectPhysics(mass_kg=4.0, friction=(0.2, 0.4)))  # fmt: skip
 
     references = [
         one_mass("sa,seed=0", "runs/mid0", (0.3, 0.6, 0.8, 0.9)),  # at 6M: 80 %
@@ -578,9 +591,11 @@ def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluat
     from mapush.report.team_table import fixed_mass, team_table
 
     def job(seed, rates, overrides=(), variant="quick"):  # one robot on the cuboid, S.R. at 2 / 8 / 24 / 64 kg
-        evals = {f"m{m}": {"success_rate": sr} for m, sr in zip((2, 8, 24, 64), rates, strict=True)}
+        masses = (2, 8, 24, 64)
+        evals = {f"m{m}": {"success_rate": sr, "object_mass_kg": m} for m, sr in zip(masses, rates, strict=True)}
         return JobResult(job_dir=f"{variant},seed={seed}", table="team", budget="quick", variant=variant, seed=seed,
-                         num_agents=1, task="cuboid", overrides=list(overrides), evals=evals)  # fmt: skip
+                         num_agents=1, task="cuboid", overrides=list(overrides), evals=evals,
+                         physics=physics_of(overrides))  # fmt: skip
 
     ranged = [job(0, (0.4, 0.6, 0.0, 0.0)), job(1, (0.4, 0.4, 0.0, 0.0))]  # 8 kg: 50 +- 10 %
     at_8 = ["task.object.mass_range=null", "task.object.mass=8.0"]
@@ -616,7 +631,7 @@ def test_a_row_trained_at_every_mass_alone_is_drawn_from_those_policies_and_mark
     from mapush.report.team_table import team_table
 
     def job(seed, rates, overrides=(), variant="quick", exceptions=None):  # one robot on the cylinder
-        evals = {f"m{m}": {"success_rate": sr} | ({"exceptions": exceptions} if exceptions else {})
+        evals = {f"m{m}": {"success_rate": sr, "object_mass_kg": m} | ({"exceptions": exceptions} if exceptions else {})
                  for m, sr in zip((2, 8, 24, 64), rates, strict=True)}  # fmt: skip
         curve = {
             "eval": "m8",
@@ -625,7 +640,7 @@ def test_a_row_trained_at_every_mass_alone_is_drawn_from_those_policies_and_mark
         }  # the study's curves: each policy evaluated at 8 kg
         return JobResult(job_dir=f"{variant},seed={seed}", table="team", budget="quick", variant=variant, seed=seed,
                          num_agents=1, task="cylinder", overrides=list(overrides), evals=evals,
-                         curve=curve)  # fmt: skip
+                         curve=curve, physics=physics_of(overrides))  # fmt: skip
 
     ranged = [job(s, (0.1, 0.1, 0.2, 0.0), exceptions={"robot_tilt": 0.5}) for s in (0, 1)]
     alone = [  # each mass's policy scores at its own mass what the rates say; elsewhere 0 (never read)
@@ -666,7 +681,8 @@ def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
     assert np.mean([100 * s for s in seeds]) < 50.0
     results = [
         JobResult(job_dir=f"agents=2,seed={seed}", table="team", variant="quick", num_agents=2, seed=seed,
-                  task="cylinder", evals={f"m{m}": {"success_rate": sr} for m in (2, 8, 24, 64)})
+                  task="cylinder", evals={f"m{m}": {"success_rate": sr, "object_mass_kg": m} for m in (2, 8, 24, 64)},
+                  physics=RANGED)
         for seed, sr in enumerate(seeds)
     ]  # fmt: skip
     table = team_table(results, "quick")

@@ -1,0 +1,125 @@
+"""The physics a job's tables weigh its cells by, as typed data: the pushed object's mass and floor friction, and
+what one robot pushes (`ObjectPhysics`); and the mass each evaluation set.
+
+A team is needed only where an object's drag exceeds what one robot pushes. The drag is mass x g x the task's
+friction range; one robot's capacity is the tracker's at the mid level's largest command, the lesser of its force
+cap and its velocity loop's stall force (mass / lag x speed), which `mapush calibrate` fits to the legged Go1. A job
+records these when it finishes (`pipeline.run_job`); for a job recorded before, they are read from the composed
+config its stages' records hold (`stage.yaml`), so no table composes a config or parses an override.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from hydra.core.override_parser.overrides_parser import OverridesParser
+
+from mapush.experiments import stages
+
+G = 9.81
+"""m/s^2."""
+MASS, MASS_RANGE = "task.object.mass", "task.object.mass_range"
+"""The keys that set an object's mass, fixed or drawn per episode (the team study's)."""
+
+
+@dataclass(frozen=True)
+class ObjectPhysics:
+    """The object a job's policy trained on and one of its robots: `mass_kg` (fixed: its `mass`, else its parts'),
+    `mass_range_kg` (drawn per episode in training; None: fixed), `friction` (the floor friction range) and
+    `robot_capacity_n` (one tracker's push at the mid level's largest command; None for a legged low level,
+    whose capacity is `mapush calibrate`'s measurement)."""
+
+    mass_kg: float
+    friction: tuple[float, float]
+    mass_range_kg: tuple[float, float] | None = None
+    robot_capacity_n: float | None = None
+
+    def drag_n(self, mass_kg: float | None = None) -> tuple[float, float]:
+        """N; the least and greatest floor drag of the object at its mass (or `mass_kg`)."""
+        mass = self.mass_kg if mass_kg is None else mass_kg
+        return mass * G * self.friction[0], mass * G * self.friction[1]
+
+    def record(self) -> dict:
+        return {
+            "mass_kg": self.mass_kg,
+            "friction": list(self.friction),
+            "mass_range_kg": None if self.mass_range_kg is None else list(self.mass_range_kg),
+            "robot_capacity_n": self.robot_capacity_n,
+        }
+
+    @classmethod
+    def from_record(cls, record: dict | None) -> ObjectPhysics | None:
+        if record is None:
+            return None
+        ranged = record.get("mass_range_kg")
+        return cls(
+            float(record["mass_kg"]),
+            (float(record["friction"][0]), float(record["friction"][1])),
+            None if ranged is None else (float(ranged[0]), float(ranged[1])),
+            record.get("robot_capacity_n"),
+        )
+
+
+def object_physics(cfg: dict) -> ObjectPhysics:
+    """A composed (plain) stage config's object, and its robot's capacity where the stage is a mid level's on the
+    tracker (its `level.action_scale` is the largest command)."""
+    obj = cfg["task"]["object"]
+    low, high = obj["friction"] if isinstance(obj["friction"], list | tuple) else (obj["friction"],) * 2
+    ranged = obj.get("mass_range")
+    capacity = None
+    if cfg["lowlevel"]["name"] == "tracker" and cfg["level"]["name"] == "mid":
+        capacity = tracker_capacity(cfg["lowlevel"], float(cfg["level"]["action_scale"][0]))
+    return ObjectPhysics(
+        float(obj.get("mass") or sum(part["mass"] for part in obj["parts"])),
+        (float(low), float(high)),
+        None if ranged is None else (float(ranged[0]), float(ranged[1])),
+        capacity,
+    )
+
+
+def tracker_capacity(lowlevel: dict, speed: float) -> float:
+    """N; the most one tracker pushes at a standstill when told `speed` (m/s): its velocity loop's stall force
+    mass / lag x speed, capped at `max_force` (on the planar norm; a push straight along one axis under `axes`)."""
+    return min(float(lowlevel["max_force"]), float(lowlevel["mass"]) / float(lowlevel["lag"]) * speed)
+
+
+def evaluated_mass(physics: ObjectPhysics, overrides: list[str]) -> float:
+    """kg; the object's mass in an evaluation of a job made on `physics` under `overrides` (the team study's set
+    `task.object.mass=M`); the trained mass where they set none."""
+    mass = physics.mass_kg
+    parser = OverridesParser.create()
+    for text in overrides:
+        override = parser.parse_override(text)
+        if override.key_or_group == MASS and override.value() is not None:
+            mass = float(override.value())
+    return mass
+
+
+def stage_config(result, name: str) -> dict | None:
+    """The composed config of a job's stage `name`, from its record in the store its run lies in; None where the
+    record is gone (a run outside a store, an archive without it)."""
+    runs = dict(zip(result.stages, result.stage_runs(), strict=True))
+    run = runs.get(name)
+    root = run and stages.store_root(run)
+    if root is None:
+        return None
+    record = stages.stage_dir(root, stages.identity_of(run)) / stages.IDENTITY_FILE
+    return stages.stage_record(record).get("config") if record.is_file() else None
+
+
+def physics_from_stages(result) -> ObjectPhysics | None:
+    """`ObjectPhysics` of a job recorded before jobs recorded it: its mid level's stage config (the stage that pushes
+    and whose commands a robot's capacity is taken at), else its first stage's."""
+    name = "mid" if "mid" in result.stages else next(iter(result.stages), None)
+    cfg = stage_config(result, name) if name else None
+    return None if cfg is None else object_physics(cfg)
+
+
+def sets_mass(override: str) -> bool:
+    """Whether a stage override sets the object's mass (fixed or drawn)."""
+    return OverridesParser.create().parse_override(override).key_or_group in (MASS, MASS_RANGE)
+
+
+def besides_mass(overrides: list[str]) -> tuple[str, ...]:
+    """A job's stage overrides other than those that set the object's mass, sorted: what else it was made with."""
+    return tuple(sorted(str(o) for o in overrides if not sets_mass(str(o))))

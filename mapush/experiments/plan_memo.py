@@ -1,0 +1,111 @@
+"""A sweep's plan, remembered: every job's composed config and planned stages, kept on disk under the key of all
+that composing them reads, so that a dry run (or a second launch) of an unchanged experiment answers in seconds.
+
+Composing and checking a job's stages is Hydra reading every config file anew (about half a second a config: a
+minute for the main table's 36 jobs). What that yields depends only on the command line's overrides, the mapush
+package's configs and code that compose and plan a job (`archive.composing_digest`), the files of any
+`hydra.searchpath` dir, the trusted modules (a config naming other code is refused when checked) and this
+machine's core count (`${cores:}`). The memo's file is named by the hash of all of these, so a change to any of
+them is a miss and the plan is composed (and checked) again; nothing is ever read under a key it was not written
+under. It lives in the user's cache dir (`$XDG_CACHE_HOME/mapush/plans`, or `MAPUSH_CACHE`), outside run dirs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from mapush import config
+from mapush.atomic import write_json
+from mapush.config import search_dirs
+from mapush.experiments.archive import composing_digest, files_digest
+from mapush.experiments.stage_plan import PlannedStage
+from mapush.trust import trusted_modules
+
+CACHE_ENV = "MAPUSH_CACHE"
+"""Where mapush keeps what it can compute again (default `$XDG_CACHE_HOME/mapush`, else `~/.cache/mapush`)."""
+
+FORMAT = 1
+"""The memo file's layout; another is a miss."""
+
+Plan = list[tuple[list[str], DictConfig, list[PlannedStage]]]
+"""Each job of a sweep: its axis overrides, its composed job config and its planned stages, in sweep order."""
+
+
+def cache_dir() -> Path:
+    """mapush's cache dir for this user."""
+    given = os.environ.get(CACHE_ENV)
+    if given:
+        return Path(given)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mapush"
+
+
+def plan_key(full: list[str]) -> str:
+    """The hash of everything a sweep's plan depends on (module docstring)."""
+    dirs = [config.CONF_DIR, *search_dirs(full)]  # the package's configs (or those put in their place) and the user's
+    searched = [files_digest(sorted(Path(d).rglob("*.yaml")), Path(d)) for d in dirs if Path(d).is_dir()]
+    parts = [f"format {FORMAT}", composing_digest(), *searched, json.dumps(full), ",".join(trusted_modules())]
+    parts.append(f"cores {os.cpu_count()}")
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _path(full: list[str]) -> Path:
+    return cache_dir() / "plans" / f"{plan_key(full)}.json"
+
+
+_READ: dict[str, Plan | None] = {}
+"""Plans this process read or stored, by key: the sweep's check and its plan ask for the same one."""
+
+
+def recall(full: list[str]) -> Plan | None:
+    """The plan remembered for `full` (as `sweep_axes.sweep_overrides` returns it), or None (a miss)."""
+    key = plan_key(full)
+    if key not in _READ:
+        _READ[key] = _read(cache_dir() / "plans" / f"{key}.json")
+    return _READ[key]
+
+
+def _read(path: Path) -> Plan | None:
+    try:
+        record = json.loads(path.read_text())
+        return [
+            (job["combo"], _job_config(job["cfg"]), [_stage(stage) for stage in job["stages"]])
+            for job in record["jobs"]
+        ]
+    except (OSError, ValueError, KeyError, TypeError):  # absent, cut or of another layout: composed again
+        return None
+
+
+def remember(full: list[str], plan: Plan) -> None:
+    """Keep `plan` under `full`'s key; a cache dir that cannot be written keeps nothing (the plan still stands)."""
+    record = {
+        "jobs": [
+            {
+                "combo": combo,
+                "cfg": OmegaConf.to_container(cfg, resolve=False),  # interpolations kept, as composed
+                "stages": [{**stage._asdict(), "shape": list(stage.shape)} for stage in planned],
+            }
+            for combo, cfg, planned in plan
+        ]
+    }
+    path = _path(full)
+    with contextlib.suppress(OSError):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_json(path, record)
+    _READ[path.stem] = plan
+
+
+def _job_config(container: dict) -> DictConfig:
+    """A job's config as `compose_config` returns it: struct mode on, so that a wrong key still fails."""
+    cfg = OmegaConf.create(container)
+    OmegaConf.set_struct(cfg, True)
+    return cfg
+
+
+def _stage(record: dict) -> PlannedStage:
+    return PlannedStage(**{**record, "shape": tuple(record["shape"])})

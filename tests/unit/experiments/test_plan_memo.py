@@ -1,0 +1,68 @@
+"""A remembered sweep plan (`plan_memo`) is the plan composing gives, and anything it depends on makes a miss."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+from omegaconf import OmegaConf
+
+from mapush.config import CONF_DIR
+from mapush.experiments import plan_memo, sweep_axes
+from mapush.experiments.sweep_axes import planned_jobs, sweep_overrides
+
+SMALL = ["method=sa", "task=cuboid", "budget=smoke", "debug=smoke"]
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv(plan_memo.CACHE_ENV, str(tmp_path / "cache"))
+    monkeypatch.setattr(plan_memo, "_READ", {})
+    return tmp_path / "cache" / "plans"
+
+
+def _as_data(jobs) -> list:
+    return [(job.combo, OmegaConf.to_container(job.cfg), job.stages) for job in jobs]
+
+
+def test_a_remembered_plan_is_the_composed_plan_and_composes_nothing(cache, monkeypatch):
+    full = sweep_overrides(SMALL)
+    composed = planned_jobs(full)
+    assert len(list(cache.glob("*.json"))) == 1
+    monkeypatch.setattr(plan_memo, "_READ", {})  # another process: read from the file
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a remembered plan composed a config")
+
+    monkeypatch.setattr(sweep_axes, "compose_config", refuse)
+    monkeypatch.setattr(sweep_axes, "planned_stages", refuse)
+    remembered = planned_jobs(sweep_overrides(SMALL))  # its check too is remembered
+    assert _as_data(remembered) == _as_data(composed)
+    assert [s.shape for job in remembered for s in job.stages] == [s.shape for job in composed for s in job.stages]
+    with pytest.raises(Exception, match="Key 'nosuch' is not in struct"):
+        remembered[0].cfg.nosuch = 1  # as strict as a composed config
+
+
+def test_another_command_line_or_config_file_is_a_miss(cache, tmp_path, monkeypatch):
+    full = sweep_overrides(SMALL)
+    key = plan_memo.plan_key(full)
+    assert plan_memo.plan_key(sweep_overrides([*SMALL, "seed=5"])) != key
+    conf = tmp_path / "conf"
+    shutil.copytree(CONF_DIR, conf)
+    from mapush import config
+
+    monkeypatch.setattr(config, "CONF_DIR", conf)
+    assert plan_memo.plan_key(full) == key  # the same files elsewhere
+    task = conf / "task" / "cuboid.yaml"
+    task.write_text(task.read_text() + "\n# edited\n")
+    assert plan_memo.plan_key(full) != key
+
+
+def test_a_damaged_memo_is_composed_again(cache, monkeypatch):
+    full = sweep_overrides(SMALL)
+    composed = planned_jobs(full)
+    (memo,) = cache.glob("*.json")
+    memo.write_text(memo.read_text()[:100])  # cut
+    monkeypatch.setattr(plan_memo, "_READ", {})
+    assert plan_memo.recall(full) is None
+    assert _as_data(planned_jobs(full)) == _as_data(composed)
