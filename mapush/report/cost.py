@@ -188,7 +188,17 @@ def _superseded(result: JobResult) -> JobResult | None:
     if not result.supersedes or not result.job_dir:
         return None
     path = Path(result.job_dir) / result.supersedes
-    return read_result(path) if path.is_file() else None
+    if not path.is_file():
+        return None
+    found = path.stat()
+    return _read_superseded(str(path), found.st_size, found.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=1024)
+def _read_superseded(path: str, _size: int, _mtime_ns: int) -> JobResult:
+    """An earlier result, read once while its file stays as it is: the cost lines ask for each many times. Read
+    only, never changed."""
+    return read_result(Path(path))
 
 
 def _first_to_evaluate(results: list[JobResult]) -> dict[Path, JobResult]:
