@@ -1,4 +1,5 @@
-"""`mapush train`: compose, make (or reopen) a run dir, train with rsl-rl PPO, export the policy."""
+"""The training driver (`mapush train` and the experiments' stages): make (or reopen) a run dir, train with rsl-rl
+PPO, export the policy."""
 
 from __future__ import annotations
 

@@ -23,10 +23,10 @@ import numpy as np
 import torch
 from omegaconf import DictConfig
 
-from mapush.commands.train import attach_episode_recorder
 from mapush.config import to_plain
 from mapush.levels import build, make_env, torch_threads
 from mapush.rl.runner import learn
+from mapush.training import attach_episode_recorder
 
 ROUNDS = 3
 

@@ -1,8 +1,7 @@
 """`mapush probe`: what a trained level does inside its evaluation's episodes (commands, falls, progress), how
 long the paths are that the high level is evaluated on (paths), how often a low level's robot falls under
 reversing commands (reversals) or squeezed by its teammates (squeeze), and which of its parts push the object
-(contacts). The figures come from `mapush.eval.probes` and `mapush.calibration`'s reversals, squeeze and
-contacts."""
+(contacts). What each does: `mapush.commands.probe_commands`."""
 
 from __future__ import annotations
 
@@ -10,8 +9,8 @@ from pathlib import Path
 
 import typer
 
-from mapush.cli.app import PASS_THROUGH, app, number_list
-from mapush.errors import BadInput
+from mapush.cli.app import PASS_THROUGH, app
+from mapush.commands import probe_commands
 
 probe_app = typer.Typer(
     help="Look inside a trained level's evaluation: its commands, where its robots fall, where its pushes go; and "
@@ -23,16 +22,6 @@ app.add_typer(probe_app, name="probe")
 TARGET = "A run dir (its latest checkpoint) or a model_<it>.pt file."
 
 
-def _check_episodes(episodes: int, target: Path | None = None) -> None:
-    """Bad input told before the simulator and PyTorch load: a count below 1, a missing run or checkpoint."""
-    if episodes < 1:
-        raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
-    if target is not None:
-        from mapush.rundir import resolve_checkpoint
-
-        resolve_checkpoint(target)
-
-
 @probe_app.command(context_settings=PASS_THROUGH)
 def commands(
     ctx: typer.Context,
@@ -42,10 +31,7 @@ def commands(
     """How hard a mid level drives its robots: its velocity commands (shares of level.action_scale) per axis, over
     each env's first push, as trained or with overrides (e.g. lowlevel=go1): mean magnitude, share saturated
     (>= 0.95), mean change per step."""
-    _check_episodes(episodes, target)
-    from mapush.eval.probes import probe_commands
-
-    probe_commands(target, episodes, list(ctx.args))
+    probe_commands.commands(target, episodes, list(ctx.args))
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -63,20 +49,7 @@ def falls(
     nearest obstacle, how often its command was at full scale, and how it moved in the second before it tumbled,
     beside every robot-step. With --go-on, how many fallen robots got up; with --replay, whether the commands alone
     topple the same robot walking free (the object parked away)."""
-    _check_episodes(episodes, target)
-    if replay < 0:
-        raise BadInput(f"--replay {replay} must be a count; valid: 0 (none) or more")
-    from mapush.eval.probes import probe_falls
-
-    watch = probe_falls(target, episodes, list(ctx.args), go_on)
-    if replay and watch.histories:
-        from mapush.calibration.reversals import replay_sweep
-
-        robot = _robot([a for a in ctx.args if a.startswith(("lowlevel", "sim."))])
-        found = replay_sweep(robot, watch.histories, watch.dt, replay)
-        print(f"  replayed free ({' '.join(robot)}), {replay} robots a fall, the {len(watch.histories)} falls with "
-              f"{len(watch.histories[0]) * watch.dt:g} s of commands: {found['fell'].mean():.2f} fell; "
-              f"falls with any replay fallen: {int((found['fell'] > 0).sum())}")  # fmt: skip
+    probe_commands.falls(target, episodes, list(ctx.args), go_on, replay)
 
 
 @probe_app.command()
@@ -93,10 +66,7 @@ def progress(
     """Where a mid level's pushes take the object, and on which side of it the robots stand: for successes and
     failures apart, the distance to the subgoal at the start and the end, the share that ended farther than it
     started, and the share of robot-steps ahead of the object."""
-    _check_episodes(episodes, target)
-    from mapush.eval.probes import probe_progress
-
-    probe_progress(target, episodes, compare)
+    probe_commands.progress(target, episodes, compare)
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -109,10 +79,7 @@ def paths(
     """How far the hierarchy has to push: the lengths of the paths the high level is evaluated on, per object (the
     maps `mapush eval` draws, planned as level.planner.* says; overrides such as level.planner.name=RRTstar follow,
     after `--` or not)."""
-    _check_episodes(episodes)
-    from mapush.eval.probes import path_lengths
-
-    path_lengths([t for t in tasks.split(",") if t], episodes, seed, list(ctx.args))
+    probe_commands.paths(tasks, episodes, seed, list(ctx.args))
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -125,11 +92,7 @@ def reversals(
     """How often a low level's robot falls walking free under full-scale commands (the mid level's action_scale on
     every axis) whose signs reverse at random, at 0 to 15 reversals per second per axis (overrides choose the robot;
     default lowlevel=go1)."""
-    if envs < 1 or not seconds > 0:
-        raise BadInput(f"--envs {envs} --seconds {seconds:g}; valid: --envs 1 or more, --seconds above 0")
-    from mapush.calibration.reversals import print_reversals
-
-    print_reversals(_robot(ctx.args), envs, seconds, seed)
+    probe_commands.reversals(list(ctx.args), envs, seconds, seed)
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -141,11 +104,7 @@ def squeeze(
     """How often a low level's robot falls squeezed between the object and its teammates' pushes: alone against an
     immovable cuboid, from a run-up, with one or two teammates in a line behind it, with a teammate across the object,
     and shoved back by two across it, also graded by their speed (overrides choose the robot; default lowlevel=go1)."""
-    if envs < 1:
-        raise BadInput(f"--envs {envs}; valid: --envs 1 or more")
-    from mapush.calibration.squeeze import print_squeeze
-
-    print_squeeze(_robot(ctx.args), envs, seed)
+    probe_commands.squeeze(list(ctx.args), envs, seed)
 
 
 @probe_app.command(context_settings=PASS_THROUGH)
@@ -158,14 +117,4 @@ def contacts(
     """How a low level's robot pushes an object alone: which of its parts touch it, how hard (read at every physics
     step), and how fast the object goes against the command (overrides choose the robot, default lowlevel=go1, and
     the object, default task=cuboid)."""
-    values = number_list(speeds, "--speeds", kind=float, minimum=0.01)
-    if envs < 1:
-        raise BadInput(f"--envs {envs}; valid: --envs 1 or more")
-    from mapush.calibration.contacts import print_contacts
-
-    print_contacts(_robot(ctx.args), values, envs, seed)
-
-
-def _robot(overrides: list[str]) -> list[str]:
-    """The overrides of a low-level probe: `lowlevel=go1` first unless they choose a low level themselves."""
-    return list(overrides) if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
+    probe_commands.contacts(list(ctx.args), speeds, envs, seed)

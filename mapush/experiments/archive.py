@@ -234,7 +234,7 @@ def files_digest(paths: list[Path], base: Path) -> str:
     return digest.hexdigest()
 
 
-NOT_COMPOSING = ("cli", "api.py", "gym.py", "report", "commands/plot.py", "bench", "calibration", "commands/ship.py")
+NOT_COMPOSING = ("cli", "api.py", "gym.py", "commands", "report", "bench", "calibration")
 """The parts of the package that take no part in composing a job or planning its stages: the layers above the
 experiments' and its independent siblings in the layers contract (pyproject.toml, tests/repo/test_layers.py), which
 the experiments never import. A change to them leaves what was found of an archived job as it was."""

@@ -26,8 +26,8 @@ from pathlib import Path
 import torch
 from omegaconf import DictConfig, OmegaConf
 
+from mapush import training
 from mapush.atomic import write_json
-from mapush.commands import train as training
 from mapush.config import apply_overrides, compose_config, lengthen_run, load_run_config, to_plain
 from mapush.errors import BadInput
 from mapush.eval.curves import learning_curve

@@ -1,8 +1,10 @@
 """The package's structure: layers that point one way (import-linter's contract in pyproject.toml), no cycles;
-modules with names of their own and of readable length; levels told apart only by their registry."""
+modules with names of their own and of readable length; levels told apart only by their registry; a command line
+that imports few of the package's modules."""
 
 from __future__ import annotations
 
+import ast
 import graphlib
 import re
 from collections import Counter
@@ -84,3 +86,35 @@ def test_what_the_archive_memo_ignores_is_what_the_experiments_cannot_import():
     reached = graph.find_upstream_modules("mapush.experiments", as_package=True)
     ignored = ["mapush." + p.removesuffix(".py").replace("/", ".") for p in NOT_COMPOSING]
     assert not [m for m in reached if any(m == i or m.startswith(i + ".") for i in ignored)]
+
+
+MAX_CLI_IMPORTS = 6
+"""The top-level mapush modules and packages the command line (mapush/cli/) may import: a thin Typer surface over
+`mapush.commands`, the implementations."""
+
+
+def mapush_imports(source: str) -> set[str]:
+    """The top-level mapush modules and packages that `source` imports anywhere (inside functions too): `cli` for
+    `mapush.cli.app`, `config` for `from mapush import config`."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found |= {alias.name.split(".")[1] for alias in node.names if alias.name.startswith("mapush.")}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            parts = node.module.split(".")
+            if parts[0] == "mapush":
+                found |= {parts[1]} if len(parts) > 1 else {alias.name for alias in node.names}
+    return found
+
+
+def test_the_cli_is_a_thin_surface_over_the_commands():
+    files = sorted((REPO / "mapush" / "cli").glob("*.py"))
+    imported = set().union(*(mapush_imports(p.read_text()) for p in files)) - {"cli"}
+    assert len(imported) <= MAX_CLI_IMPORTS, sorted(imported)
+
+
+def test_imports_inside_functions_count():
+    """The count above sees lazy imports and each name of `from mapush import a, b` (so its silence means
+    something)."""
+    source = "import mapush.rundir\nfrom mapush import config, trust\ndef f():\n    from mapush.eval.rollout import x\n"
+    assert mapush_imports(source) == {"rundir", "config", "trust", "eval"}

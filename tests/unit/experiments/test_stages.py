@@ -65,7 +65,7 @@ def test_an_experiment_whose_table_no_builder_draws_is_refused_before_it_trains(
     import shutil
 
     from mapush import config
-    from mapush.cli.experiments import _check_table
+    from mapush.commands.experiment_commands import _check_table
 
     conf = tmp_path / "conf"
     shutil.copytree(config.CONF_DIR, conf)
