@@ -22,6 +22,11 @@ MASS, MASS_RANGE = "task.object.mass", "task.object.mass_range"
 """The keys that set an object's mass, fixed or drawn per episode (the team study's)."""
 
 
+PUSHING_STAGE = "mid"
+"""The stage of a method (`conf/method/`) that pushes the object: its commands are what a robot's capacity is
+taken at."""
+
+
 @dataclass(frozen=True)
 class ObjectPhysics:
     """The object a job's policy trained on and one of its robots: `mass_kg` (fixed: its `mass`, else its parts'),
@@ -60,14 +65,14 @@ class ObjectPhysics:
         )
 
 
-def object_physics(cfg: dict) -> ObjectPhysics:
-    """A composed (plain) stage config's object, and its robot's capacity where the stage is a mid level's on the
-    tracker (its `level.action_scale` is the largest command)."""
+def object_physics(cfg: dict, pushes: bool) -> ObjectPhysics:
+    """A composed (plain) stage config's object, and its robot's capacity where the stage `pushes` (a job's mid
+    stage: its `level.action_scale` is the largest command a robot is given) on the tracker."""
     obj = cfg["task"]["object"]
     low, high = obj["friction"] if isinstance(obj["friction"], list | tuple) else (obj["friction"],) * 2
     ranged = obj.get("mass_range")
     capacity = None
-    if cfg["lowlevel"]["name"] == "tracker" and cfg["level"]["name"] == "mid":
+    if pushes and cfg["lowlevel"]["name"] == "tracker":
         capacity = tracker_capacity(cfg["lowlevel"], float(cfg["level"]["action_scale"][0]))
     return ObjectPhysics(
         float(obj.get("mass") or sum(part["mass"] for part in obj["parts"])),
@@ -110,9 +115,9 @@ def stage_config(result, name: str) -> dict | None:
 def physics_from_stages(result) -> ObjectPhysics | None:
     """`ObjectPhysics` of a job recorded before jobs recorded it: its mid level's stage config (the stage that pushes
     and whose commands a robot's capacity is taken at), else its first stage's."""
-    name = "mid" if "mid" in result.stages else next(iter(result.stages), None)
+    name = PUSHING_STAGE if PUSHING_STAGE in result.stages else next(iter(result.stages), None)
     cfg = stage_config(result, name) if name else None
-    return None if cfg is None else object_physics(cfg)
+    return None if cfg is None else object_physics(cfg, pushes=name == PUSHING_STAGE)
 
 
 def sets_mass(override: str) -> bool:
