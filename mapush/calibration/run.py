@@ -16,18 +16,17 @@ Three experiments on the robot that the overrides choose (default `lowlevel=go1`
 Then the tracker as it would be written runs every test with a fall outcome, and its expected falls are held
 against the Go1's, group by group (`consistency.compare`): a tracker more than 10 points apart anywhere is not
 written, and each failing group is reported.
-The fitted values replace those keys in the tracker config (each line says what it was calibrated against and when),
-except a yaw lag the robot does not follow (`STEADY_MIN`), a capacity or push gain the sweep cannot give, or a fall
-curve with no fall, which are reported instead and stay as they were; a yaw lag at the fit grid's bound is written
-and reported (the robot turns at least that quickly). `calibration.json` (every measurement) and
-`calibration.png` (the robot's responses against the fitted tracker's) go to the output dir.
+The fitted values replace those keys of the package's tracker config in a tracker of its own, `lowlevel/<name>.yaml`
+in the output dir (`tracker_option.py`), except a yaw lag the robot does not follow (`STEADY_MIN`), a capacity or
+push gain the sweep cannot give, or a fall curve with no fall, which are reported instead and stay as they were; a
+yaw lag at the fit grid's bound is written and reported (the robot turns at least that quickly). The package's own
+config is never written. `calibration.json` (every measurement) and `calibration.png` (the robot's responses against
+the fitted tracker's) go to the output dir too.
 """
 
 from __future__ import annotations
 
-import datetime
 import json
-import re
 from pathlib import Path
 
 import numpy as np
@@ -47,16 +46,13 @@ from mapush.calibration.lags import (
     steady_fractions,
     step_commands,
 )
-from mapush.config import CONF_DIR, compose_config, to_plain
-from mapush.errors import BadInput
+from mapush.calibration.tracker_option import DEFAULT_NAME, check_name, default_config_path, write_tracker_option
+from mapush.config import compose_config, to_plain
 from mapush.lowlevel.go1 import policy_of
 
-CALIBRATED = "calibrated against"
 SHOVE_STARTS_PER_REPEAT = 16
 """Starts per pair speed in the graded shove and per squeeze layout, per `repeats`: 96 at the default 6, so that a
 fall share's standard error (at most 5 points) is half the consistency check's tolerance (10 points)."""
-CALIBRATED_KEYS = ("lag", "yaw_lag", "max_force", "force_cap", "fall")
-"""The tracker keys a calibration writes or reads back: a config must have each at the top level."""
 
 
 def calibrate(
@@ -65,22 +61,18 @@ def calibrate(
     settle_s: float,
     duration_s: float,
     out_dir: Path,
-    config_path: Path,
+    name: str = DEFAULT_NAME,
     repeats: int = 6,
     seed: int = 0,
 ) -> dict:
-    """Run the experiments, fit, write `config_path` (tracker.yaml), `calibration.json` and `calibration.png`.
+    """Run the experiments, fit, write the tracker `out_dir/lowlevel/<name>.yaml` (if it falls as the robot does),
+    `calibration.json` and `calibration.png`; `summary["tracker_config"]` is the tracker's path (None: not written).
 
     Args:
         reference: overrides that select the robot to measure, e.g. `["lowlevel=go1", "lowlevel.policy=P"]`.
         repeats: starts per drag and per load in the capacity and fall sweeps. seed: draws those starts.
     """
-    missing = [key for key in CALIBRATED_KEYS if not re.search(rf"^{key}:", Path(config_path).read_text(), re.M)]
-    if missing:
-        raise BadInput(
-            f"--config {config_path} has no {', '.join(missing)}; valid: a tracker config of this mapush version "
-            f"({default_config_path()})"
-        )
+    check_name(name)  # before hours of measuring
     out_dir.mkdir(parents=True, exist_ok=True)
     robot_overrides = [*reference, "task.num_agents=1"]
     robot = to_plain(compose_config(robot_overrides))["lowlevel"]
@@ -100,7 +92,7 @@ def calibrate(
     if steady["yaw_rate"] < STEADY_MIN:
         warnings.append(
             f"yaw_lag: the robot holds {steady['yaw_rate']:.0%} of its yaw-rate step after {duration_s:g} s, which "
-            f"no first-order lag does; yaw_lag left as it was in {config_path}"
+            f"no first-order lag does; yaw_lag left as it was in {default_config_path()}"
         )
     else:
         fitted["yaw_lag"] = yaw_lag
@@ -111,7 +103,7 @@ def calibrate(
     gain = cap.fit_push_gain(push["drag"], push["speed"])
     falls = cap.fall_sweep(reference, repeats, seed)
     curve = cap.fit_fall_curve(falls["load"], falls["fell"])
-    before = OmegaConf.to_container(OmegaConf.load(config_path))  # the tracker as it was: its mass, its other keys
+    before = OmegaConf.to_container(OmegaConf.load(default_config_path()))  # the package's: its mass, other keys
     mass = float(before["mass"])
     if gain is None or not LAG_GRID[0] <= mass / gain <= LAG_GRID[-1]:
         warnings.append(f"lag: the push sweep gives no force-speed line (push gain {gain}); left as it was")
@@ -194,8 +186,9 @@ def calibrate(
         "shoves": shoves,
     }
     summary["consistency"] = consistency.compare(summary)
+    summary["tracker_config"] = None
     if summary["consistency"]["passed"]:
-        write_tracker_config(config_path, fitted, source)
+        summary["tracker_config"] = str(write_tracker_option(out_dir, name, fitted, source))
     else:
         summary["written"] = {}
         warnings += [f"not written: {line}" for line in consistency.describe(summary["consistency"])]
@@ -237,26 +230,6 @@ def _as_overrides(tracker: dict, fall: bool = True) -> list[str]:
         model = tracker.get("fall")
         overrides += cap.fall_overrides(model)
     return overrides
-
-
-def write_tracker_config(path: Path, fitted: dict, source: str) -> None:
-    """Replace the fitted keys' values in tracker.yaml; every other line, and each key's own comment, stay."""
-    text = Path(path).read_text()
-    stamp = datetime.date.today().isoformat()
-    for key, value in fitted.items():
-        pattern = re.compile(rf"^{key}:[ \t]*[^#\n]*?(?:[ \t]*#[ \t]*(.*))?$", re.MULTILINE)
-        found = pattern.search(text)
-        if not found:
-            raise ValueError(f"{path} has no top-level {key!r} to calibrate")
-        comment = (found.group(1) or "").split(CALIBRATED)[0].rstrip("; ")
-        shown = (
-            "{" + ", ".join(f"{k}: {v:g}" for k, v in value.items()) + "}"
-            if isinstance(value, dict)
-            else f"{value:.4g}"
-        )
-        line = f"{key}: {shown}  # {comment}; {CALIBRATED} {source}, {stamp}".replace("#  ;", "#").replace("# ;", "#")
-        text = text[: found.start()] + line + text[found.end() :]
-    write_text(Path(path), text)
 
 
 def plot_calibration(summary: dict, out: Path) -> None:
@@ -330,11 +303,6 @@ def plot_calibration(summary: dict, out: Path) -> None:
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
-
-
-def default_config_path() -> Path:
-    """conf/lowlevel/tracker.yaml of this checkout."""
-    return CONF_DIR / "lowlevel" / "tracker.yaml"
 
 
 def physical_bounds() -> dict[str, tuple[float, float]]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
+import shutil
 
 import numpy as np
 import pytest
@@ -14,6 +16,8 @@ from paths import REPO
 from mapush.calibration import capacity
 from mapush.calibration.lags import LAG_GRID, STEADY_MIN, fit_lag, steady_fractions, step_commands
 from mapush.calibration.run import default_config_path
+from mapush.calibration.tracker_option import use_line
+from mapush.config import compose_config, to_plain
 
 
 def test_the_lag_fit_recovers_a_known_first_order_response():
@@ -83,14 +87,17 @@ def test_no_fall_gives_no_curve():
 
 
 @pytest.mark.slow
-def test_calibrating_the_tracker_against_itself_recovers_its_lag_and_capacity(cli, tmp_path):
+def test_calibrating_the_tracker_against_itself_recovers_its_lag_and_capacity(cli, tmp_path, monkeypatch):
     """The tracker pushes at most min(max_force, mass / lag x 0.5 m/s) at a standstill: the capacity measured is
     that, less the stall speed's share; without a fall model it cannot fall, so no fall curve is written, and a
-    tracker config that cannot fall either is consistent with it and written."""
-    config = tmp_path / "tracker.yaml"
-    config.write_text(re.sub(r"^fall:.*$", "fall: null", default_config_path().read_text(), flags=re.M))
+    tracker whose base cannot fall either (a conf tree whose tracker has `fall: null`) is consistent with it and
+    written as `lowlevel=tracker_calibrated` beside the record."""
+    conf = shutil.copytree(default_config_path().parents[1], tmp_path / "conf")
+    base = conf / "lowlevel" / "tracker.yaml"
+    base.write_text(re.sub(r"^fall:.*$", "fall: null", base.read_text(), flags=re.M))
+    monkeypatch.setenv("MAPUSH_CONF_DIR", str(conf))
     proc = cli("calibrate", "lowlevel=tracker", "lowlevel.fall=null", "--duration", "1.5", "--settle", "0",
-               "--repeats", "1", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
+               "--repeats", "1", "--out", tmp_path / "cal")  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
     tracker = OmegaConf.load(default_config_path())
@@ -100,21 +107,31 @@ def test_calibrating_the_tracker_against_itself_recovers_its_lag_and_capacity(cl
     assert summary["capacity_n"] == pytest.approx(stall * (1 - capacity.STALL_SPEED / capacity.PUSH_SPEED), rel=0.1)
     assert summary["fall_curve"] is None and [w.split(":")[0] for w in summary["warnings"]] == ["fall"]
     assert summary["consistency"]["passed"]
-    written = OmegaConf.load(config)
-    assert written.max_force == pytest.approx(summary["capacity_n"], abs=0.05)
-    assert "calibrated against tracker" in config.read_text().split("max_force:")[1].splitlines()[0]
+    written = tmp_path / "cal" / "lowlevel" / "tracker_calibrated.yaml"
+    assert summary["tracker_config"] == str(written)
+    assert OmegaConf.load(written).max_force == pytest.approx(summary["capacity_n"], abs=0.05)
+    assert OmegaConf.load(written).fall is None and "calibrated against tracker" in written.read_text()
     assert (tmp_path / "cal" / "calibration.png").stat().st_size > 0
 
 
 @pytest.mark.slow
-def test_without_config_the_measured_tracker_goes_beside_the_record_and_the_package_stays(cli, tmp_path):
-    package = default_config_path().read_text()
+def test_calibrate_writes_a_tracker_option_the_printed_line_composes_and_leaves_the_package_as_it_was(cli, tmp_path):
+    conf = default_config_path().parents[1]
+    before = {p: p.read_bytes() for p in sorted(conf.rglob("*")) if p.is_file()}
     proc = cli("calibrate", "lowlevel=tracker", "--duration", "0.5", "--settle", "0", "--repeats", "1",
-               "--out", tmp_path / "cal")  # fmt: skip
+               "--out", "cal", "--name", "mine")  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    assert default_config_path().read_text() == package
-    written = (tmp_path / "cal" / "tracker.yaml").read_text()
-    assert "calibrated against tracker" in written and written != package
+    assert {p: p.read_bytes() for p in sorted(conf.rglob("*")) if p.is_file()} == before  # byte for byte
+    summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    assert tmp_path / summary["tracker_config"] == tmp_path / "cal" / "lowlevel" / "mine.yaml"
+    assert summary["written"], summary["warnings"]
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("use it: ")]
+    assert lines == [use_line("mine", tmp_path / "cal")], proc.stdout
+    command = shlex.split(lines[0].removeprefix("use it: "))
+    assert command[:3] == ["mapush", "train", "lowlevel=mine"]
+    lowlevel = to_plain(compose_config(command[2:]))["lowlevel"]  # from another working dir than calibrate's
+    assert lowlevel["name"] == "mine" and lowlevel["backend"] == "tracker"
+    assert {key: lowlevel[key] for key in summary["written"]} == summary["written"]
 
 
 def test_two_seeds_measure_the_tracker_alike(tmp_path):

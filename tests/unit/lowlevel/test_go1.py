@@ -284,12 +284,12 @@ def test_the_mid_level_drives_go1s_through_the_locomotion_policy(cfg_for, low_ru
 def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli, low_run, tmp_path):
     from mapush.calibration.run import default_config_path, physical_bounds
 
-    config = tmp_path / "tracker.yaml"
-    shutil.copy(default_config_path(), config)
-    before = config.read_text().splitlines()
+    package = default_config_path().read_bytes()
+    before = OmegaConf.to_container(OmegaConf.load(default_config_path()))
     proc = cli("calibrate", f"lowlevel.policy={low_run / 'policy.pt'}", "--duration", "1", "--settle", "0.2",
-               "--repeats", "1", "--out", tmp_path / "cal", "--config", config)  # fmt: skip
+               "--repeats", "1", "--out", tmp_path / "cal")  # fmt: skip
     assert proc.returncode == 0, proc.stderr
+    assert default_config_path().read_bytes() == package  # calibrate never writes the package's config
     summary = json.loads((tmp_path / "cal" / "calibration.json").read_text())
     for key, value in summary["fitted"].items():
         if key in physical_bounds():
@@ -300,14 +300,16 @@ def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli
     # and a tracker that falls more than 10 points apart from it in any test is not written at all
     assert untrusted <= {"lag", "yaw_lag", "max_force", "fall", "shove", "not written"}
     assert proc.stdout.count("warning: ") == len(summary["warnings"])
+    written = tmp_path / "cal" / "lowlevel" / "tracker_calibrated.yaml"
     if "not written" in untrusted:
         assert summary["written"] == {} and not summary["consistency"]["passed"]
-        assert config.read_text().splitlines() == before
+        assert summary["tracker_config"] is None and not written.exists() and "use it:" not in proc.stdout
         return
-    after = config.read_text().splitlines()
-    changed = [a for b, a in zip(before, after, strict=True) if a != b]
-    assert sorted(line.split(":")[0] for line in changed) == sorted(summary["written"])
-    assert all("calibrated against go1" in line for line in changed)
+    after = OmegaConf.to_container(OmegaConf.load(written))
+    changed = sorted(key for key in before if key != "name" and after[key] != before[key])
+    assert changed == sorted(key for key, value in summary["written"].items() if value != before[key])
+    assert "calibrated against go1" in written.read_text()
+    assert "use it: mapush train lowlevel=tracker_calibrated" in proc.stdout
     assert set(summary["written"]) == {"lag", "yaw_lag", "max_force", "fall"} - untrusted
 
 
