@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from hydra.core.override_parser.overrides_parser import OverridesParser
 
 from mapush.experiments import stages
+from mapush.lowlevel import backend_name
 
 G = 9.81
 """m/s^2."""
@@ -72,7 +73,7 @@ def object_physics(cfg: dict, pushes: bool) -> ObjectPhysics:
     low, high = obj["friction"] if isinstance(obj["friction"], list | tuple) else (obj["friction"],) * 2
     ranged = obj.get("mass_range")
     capacity = None
-    if pushes and cfg["lowlevel"]["name"] == "tracker":
+    if pushes and backend_name(cfg["lowlevel"]) == "tracker":  # a calibrated tracker of yours too
         capacity = tracker_capacity(cfg["lowlevel"], float(cfg["level"]["action_scale"][0]))
     return ObjectPhysics(
         float(obj.get("mass") or sum(part["mass"] for part in obj["parts"])),
