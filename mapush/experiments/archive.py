@@ -161,7 +161,7 @@ def job_made_already(
         if same_stages(result, cfg, planned, root) != wanted:
             continue
         evals, curve = still_valid(result, cfg, planned, root)
-        if sorted(evals) != asked or any({k: e.get(k) for k in alike} != alike for e in evals.values()):
+        if sorted(evals) != asked or any({k: getattr(e, k) for k in alike} != alike for e in evals.values()):
             continue
         if (curve is None) == bool(budget.get("curve")):
             continue

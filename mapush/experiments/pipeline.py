@@ -16,6 +16,7 @@ its run dir (`STAGE_CURVE`) and copied into the result of every job that uses th
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime
 import json
 import os
@@ -34,6 +35,7 @@ from mapush.eval.curves import learning_curve
 from mapush.eval.rollout import evaluate
 from mapush.experiments import stages
 from mapush.experiments.archive import archived_result, job_made_already
+from mapush.experiments.job_records import Curve, CurveRule
 from mapush.experiments.results import (
     RESULT,
     SUPERSEDED,
@@ -187,10 +189,8 @@ def _job_result(cfg: DictConfig, job_dir: Path, **made) -> JobResult:
         **made,
     )
     result.object_physics()  # the object and one robot, as its stages' records hold them (`job_physics`)
-    for name, record in result.evals.items():
-        mass = result.object_mass(name)
-        if mass is not None:
-            record["object_mass_kg"] = mass
+    for name, evaluation in result.evals.items():
+        evaluation.object_mass_kg = result.object_mass(name)
     return result
 
 
@@ -217,7 +217,7 @@ def _taken(cfg: DictConfig, job_dir: Path, other: JobResult, evals: dict, curve:
     )
 
 
-def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, dict]:
+def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = None) -> dict[str, Curve]:
     """The learning curves of the stages the budget's `curve.stages` names that the job trains before its evaluated
     stage: each stage's checkpoints evaluated on its own env (the mid level alone, on its 20 s pushes), at the
     curve's marks, with the budget's evaluation seeds and the stage's `episodes` (by default the budget's), and the
@@ -232,9 +232,11 @@ def stage_curves(cfg: DictConfig, runs: dict[str, Path], have: dict | None = Non
     for name, spec in stage_curve_specs(cfg, set(runs)).items():
         earlier = (have or {}).get(name)
         if Path(runs[name]).is_dir():
-            drawn[name] = {**spec, "rule": rule, "points": _stage_curve_points(Path(runs[name]), spec)}
+            drawn[name] = Curve.from_record(
+                {**spec, "rule": rule, "points": _stage_curve_points(Path(runs[name]), spec)}
+            )
         elif drawn_alike(earlier, spec):
-            drawn[name] = {**earlier, "rule": rule}  # judged by today's rule
+            drawn[name] = dataclasses.replace(earlier, rule=CurveRule(**rule))  # judged by today's rule
     return drawn
 
 

@@ -13,6 +13,7 @@ from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
 from mapush.experiments.job_physics import ObjectPhysics, evaluated_mass, physics_from_stages
+from mapush.experiments.job_records import Curve, Evaluation
 from mapush.migrations import stamp, upgrade
 from mapush.records import check_schema, read_json
 
@@ -34,25 +35,31 @@ def _nullable(schema: dict) -> dict:
     return {**schema, "type": ["null", schema["type"]]}
 
 
-def _record(properties: dict, required: tuple[str, ...] = ()) -> dict:
-    return {"type": "object", "properties": properties, "required": list(required)}
+def _record(properties: dict, required: tuple[str, ...] = (), closed: bool = False) -> dict:
+    """An object's schema; `closed`: no keys but `properties` (a typed record's, `job_records.py`)."""
+    schema = {"type": "object", "properties": properties, "required": list(required)}
+    return {**schema, "additionalProperties": False} if closed else schema
 
 
 POINT = _record({"iteration": INTEGER, "env_steps": NUMBER, "success_rate": NUMBER}, ("env_steps", "success_rate"))
 CURVE = _record(
     {
-        **{"eval": TEXT, "every_env_steps": NUMBER, "reach": NUMBER},
-        "rule": _record({"tail": NUMBER, "max_gain": NUMBER}, ("tail", "max_gain")),
+        **{"eval": TEXT, "every_env_steps": NUMBER, "reach": NUMBER, "episodes": INTEGER},
+        "rule": _record({"tail": NUMBER, "max_gain": NUMBER}, ("tail", "max_gain"), closed=True),
         "points": {"type": "array", "items": POINT},
+        "stages": {"type": "object", "additionalProperties": {"type": ["object", "null"]}},
+        "seeds": {"type": "array", "items": INTEGER},
     },
     ("points",),
+    closed=True,
 )
 PAIR = {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 2}
 PHYSICS = _record(
     {"mass_kg": NUMBER, "friction": PAIR, "mass_range_kg": _nullable(PAIR), "robot_capacity_n": _nullable(NUMBER)},
     ("mass_kg", "friction"),
+    closed=True,
 )
-EVENT = _record({"episode_share": NUMBER, "per_episode": NUMBER}, ("episode_share",))
+EVENT = _record({"episode_share": NUMBER, "per_episode": NUMBER}, ("episode_share",), closed=True)
 EVAL = _record(
     {
         **dict.fromkeys(("success_rate", "completion_time", "completion_time_s", "timeout_s", "path_length_m"), NUMBER),
@@ -134,9 +141,8 @@ class JobResult:
     """What one sweep job made: which job it is, the stage runs it trained or reused, its evaluations and learning
     curves, and what they cost. The fields before `job_dir` are the file's; an absent optional one is None.
 
-    `evals` maps an evaluation's name to its record: the evaluation file's summary (`success_rate`,
-    `completion_time`, `exceptions`, ... as `mapush eval` writes them) with its `file` and `overrides`. A curve is
-    `{eval, every_env_steps, reach, rule, points, ...}` as `pipeline` draws it."""
+    `evals` maps an evaluation's name to its `Evaluation` (the summary `mapush eval` wrote, with its `file` and
+    `overrides`); `curve` and `stage_curves` are `Curve`s as `pipeline` draws them (`job_records.py`)."""
 
     experiment: str = ""
     table: str = ""
@@ -152,9 +158,9 @@ class JobResult:
     lowlevel: str | None = None  # the low level its stages were trained on (`lowlevel.name`); None: not recorded
     stages: dict[str, str] = field(default_factory=dict)  # stage name -> run dir, in training order
     stage_core_s: dict[str, float] = field(default_factory=dict)  # training core-seconds, kept when runs are gone
-    evals: dict[str, dict] = field(default_factory=dict)
-    curve: dict | None = None  # the evaluated stage's learning curve, if the budget asks for one
-    stage_curves: dict[str, dict] | None = None  # the curves of stages trained under it, by stage name
+    evals: dict[str, Evaluation] = field(default_factory=dict)
+    curve: Curve | None = None  # the evaluated stage's learning curve, if the budget asks for one
+    stage_curves: dict[str, Curve | None] | None = None  # the curves of stages trained under it, by stage name
     eval_wall_s: float | None = None  # this job's time after training (None: finished before it was recorded)
     threads: int | None = None
     machine_cores: int | None = None
@@ -166,6 +172,14 @@ class JobResult:
     # not in the file: where it was read, and what `mapush tables` found of it against its experiment now
     job_dir: str = field(default="", metadata={"in_file": False})
     made_otherwise: Change | None = field(default=None, metadata={"in_file": False})
+
+    def __post_init__(self) -> None:
+        """Evaluations and curves given as their records (`result.json`'s, or a job's as it makes them) become
+        typed."""
+        self.evals = {name: _evaluation(e) for name, e in self.evals.items()}
+        self.curve = Curve.from_record(self.curve)
+        if self.stage_curves is not None:
+            self.stage_curves = {name: Curve.from_record(c) for name, c in self.stage_curves.items()}
 
     @classmethod
     def from_record(cls, record: dict, job_dir: str | Path = "") -> JobResult:
@@ -189,6 +203,10 @@ class JobResult:
         }
         if self.physics is not None:
             record["physics"] = self.physics.record()
+        record["evals"] = {name: e.record() for name, e in self.evals.items()}
+        record["curve"] = self.curve and self.curve.record()
+        if self.stage_curves is not None:
+            record["stage_curves"] = {name: c and c.record() for name, c in self.stage_curves.items()}
         return record
 
     def object_physics(self) -> ObjectPhysics | None:
@@ -201,19 +219,24 @@ class JobResult:
     def object_mass(self, name: str) -> float | None:
         """kg; the object's mass in its evaluation `name`: as recorded, else from its physics and the evaluation's
         overrides (`job_physics.evaluated_mass`); None where neither is known."""
-        record, physics = self.evals.get(name), self.object_physics()
-        if record is None or "object_mass_kg" in record or physics is None:
-            return None if record is None else record.get("object_mass_kg")
-        return evaluated_mass(physics, record.get("overrides", []))
+        evaluation, physics = self.evals.get(name), self.object_physics()
+        if evaluation is None or evaluation.object_mass_kg is not None or physics is None:
+            return None if evaluation is None else evaluation.object_mass_kg
+        return evaluated_mass(physics, evaluation.overrides or [])
 
     def evaluated_stage(self, name: str) -> str | None:
         """The stage whose run its evaluation `name` loaded the checkpoint from, None when none is named."""
-        checkpoint = Path(self.evals.get(name, {}).get("checkpoint", ""))
+        evaluation = self.evals.get(name)
+        checkpoint = Path(evaluation.checkpoint or "") if evaluation else Path()
         return next((stage for stage, run in self.stages.items() if Path(run) in checkpoint.parents), None)
 
     def stage_runs(self) -> list[Path]:
         """The run dirs of its stages, in training order (`stages.stage_paths`)."""
         return stages.stage_paths(self.stages, self.job_dir)
+
+
+def _evaluation(given: Evaluation | dict) -> Evaluation:
+    return given if isinstance(given, Evaluation) else Evaluation.from_record(given)
 
 
 def read_result(path: Path) -> JobResult:

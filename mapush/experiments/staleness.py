@@ -4,12 +4,14 @@ What it finds is a `Change` (`results.py`), which says which of a result's evalu
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import apply_overrides, load_run_config, to_plain
 from mapush.experiments import stages
+from mapush.experiments.job_records import Curve, CurveRule, Evaluation
 from mapush.experiments.results import Change, JobResult
 from mapush.experiments.stage_plan import PlannedStage, applies, budget_of, eval_overrides, eval_stage, evaluated_stage
 from mapush.lowlevel import backend_of
@@ -17,7 +19,7 @@ from mapush.lowlevel import backend_of
 
 def still_valid(
     result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None
-) -> tuple[dict, dict | None]:
+) -> tuple[dict[str, Evaluation], Curve | None]:
     """Of an earlier `result`, the evaluations (and the learning curve) that hold under the experiment now: made of
     a stage with the same identity (or one it was adopted from), with the same overrides and locomotion policy.
     An evaluation that recorded no overrides (made before they were recorded) is taken as made with today's, as
@@ -27,23 +29,27 @@ def still_valid(
     for name, spec in cfg.experiment.evals.items():
         record, overrides = result.evals.get(name), eval_overrides(cfg, name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
-        holds = holds and record.get("overrides", overrides) == overrides
+        holds = holds and (overrides if record.overrides is None else record.overrides) == overrides
         if holds and not _walker_changed(record, result, cfg, name, planned):
-            kept[name] = {**record, "overrides": overrides}
+            kept[name] = dataclasses.replace(record, overrides=list(overrides))
     curve, spec = result.curve, budget_of(cfg).get("curve")
-    holds = curve and spec and evaluated_stage(cfg) in same and curve.get("eval") in kept
-    if not holds or curve.get("every_env_steps") != spec.every_env_steps:
+    holds = curve and spec and evaluated_stage(cfg) in same and curve.eval in kept
+    if not holds or curve.every_env_steps != spec.every_env_steps:
         return kept, None
-    return kept, {**curve, "rule": OmegaConf.to_container(cfg.experiment.budget_rule)}  # judged by today's rule
+    rule = CurveRule(**OmegaConf.to_container(cfg.experiment.budget_rule))
+    return kept, dataclasses.replace(curve, rule=rule)  # judged by today's rule
 
 
-def drawn_alike(curve: dict | None, spec: dict) -> bool:
-    """Whether a recorded stage curve was drawn at the marks, episodes and seeds `spec` asks for
-    (`stage_plan.stage_curve_specs`)."""
-    return bool(curve) and {key: curve.get(key) for key in spec} == spec
+def drawn_alike(curve: Curve | dict | None, spec: dict) -> bool:
+    """Whether a recorded stage curve (or one written into a stage's run dir, as a record) was drawn at the marks,
+    episodes and seeds `spec` asks for (`stage_plan.stage_curve_specs`)."""
+    record = curve.record() if isinstance(curve, Curve) else curve
+    return bool(record) and {key: record.get(key) for key in spec} == spec
 
 
-def _walker_changed(record: dict, result: JobResult, cfg: DictConfig, name: str, planned: list[PlannedStage]) -> bool:
+def _walker_changed(
+    record: Evaluation, result: JobResult, cfg: DictConfig, name: str, planned: list[PlannedStage]
+) -> bool:
     """Whether the locomotion policy evaluation `name` would walk its robots with now (`lowlevel.policy`, or the
     shipped one) is another than the one its `record` names; a legged evaluation that named none counts as
     changed. The stage's run config says which policy, or where the run is gone (another machine, an archived
@@ -58,7 +64,7 @@ def _walker_changed(record: dict, result: JobResult, cfg: DictConfig, name: str,
     lowlevel = to_plain(apply_overrides(stage_cfg, eval_overrides(cfg, name)))["lowlevel"]
     now = backend_of(lowlevel).policy_fingerprint(lowlevel)
     # the policy's hash says which it is; its file's path moves with the checkout
-    return (now or {}).get("sha256") != (record.get("lowlevel_policy") or {}).get("sha256")
+    return (now or {}).get("sha256") != (record.lowlevel_policy or {}).get("sha256")
 
 
 def same_stages(result: JobResult, cfg: DictConfig, planned: list[PlannedStage], root: Path | None = None) -> set[str]:
@@ -98,11 +104,11 @@ def result_changes(
         had = ", ".join(sorted(result.evals))
         return Change("evaluations", f"its evaluations changed ({had} -> {', '.join(evals)})")
     for name in evals:  # results made before evaluations recorded their overrides are taken as they are
-        recorded, now = result.evals[name].get("overrides"), eval_overrides(cfg, name)
+        recorded, now = result.evals[name].overrides, eval_overrides(cfg, name)
         if recorded is not None and recorded != now:
             return _about_evaluation(name, f"changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})")
         if _walker_changed(result.evals[name], result, cfg, name, planned):
-            if "lowlevel_policy" not in result.evals[name]:
+            if result.evals[name].lowlevel_policy is None:
                 return _about_evaluation(name, "recorded no locomotion policy")
             return _about_evaluation(name, "walked its robots with another locomotion policy than now")
     if bool(result.curve) != bool(budget_of(cfg).get("curve")):

@@ -180,8 +180,7 @@ def report(sweep_dir: Path, finished: list[Path], failed: list[Path]) -> int:
     for path in finished:
         result = read_result(path / RESULT)
         cells = ", ".join(
-            f"{name} S.R. {100 * e['success_rate']:.1f}% C.T. {e['completion_time']:.3f}"
-            for name, e in result.evals.items()
+            f"{name} S.R. {100 * e.success_rate:.1f}% C.T. {e.completion_time:.3f}" for name, e in result.evals.items()
         )
         print(f"  {path.name}: {cells}")
     for path in failed:

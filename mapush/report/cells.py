@@ -47,7 +47,7 @@ def collect(results: list[JobResult], metric: str, scale: float, **match) -> Cel
     eval_name = match.pop("eval")
     return _gathered(
         matching(results, **match),
-        lambda r: r.evals[eval_name].get(metric) if eval_name in r.evals else None,  # a record may lack it
+        lambda r: r.evals[eval_name].metric(metric) if eval_name in r.evals else None,  # a record may lack it
         lambda r, change: change.concerns(r, eval_name),
         scale,
     )
@@ -60,8 +60,9 @@ def event_cell(results: list[JobResult], event: str, **match) -> Cell:
     eval_name = match.pop("eval")
 
     def share(r: JobResult) -> float | None:
-        found = r.evals.get(eval_name, {}).get("events", {}).get(event)
-        return None if found is None else found["episode_share"]
+        evaluation = r.evals.get(eval_name)
+        found = evaluation and evaluation.events and evaluation.events.get(event)
+        return found.episode_share if found else None
 
     return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), 100.0)
 
@@ -76,10 +77,12 @@ def fall_cell(results: list[JobResult], **match) -> Cell:
     eval_name = match.pop("eval")
 
     def share(r: JobResult) -> float | None:
-        record = r.evals.get(eval_name, {})
-        if "events" in record:
-            return record["events"]["falls"]["episode_share"]
-        return None if record.get("exceptions") is None else record["exceptions"].get(FALL, 0.0)
+        evaluation = r.evals.get(eval_name)
+        if evaluation is None:
+            return None
+        if evaluation.events is not None:
+            return evaluation.events["falls"].episode_share
+        return None if evaluation.exceptions is None else evaluation.exceptions.get(FALL, 0.0)
 
     return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), 100.0)
 
@@ -89,8 +92,8 @@ def final_cell(results: list[JobResult], stage: str, scale: float, **match) -> C
     level alone under a high level, at the end of its budget), for its success rate."""
 
     def last(r: JobResult) -> float | None:
-        points = ((r.stage_curves or {}).get(stage) or {}).get("points")
-        return points[-1]["success_rate"] if points else None
+        curve = (r.stage_curves or {}).get(stage)
+        return curve.points[-1]["success_rate"] if curve and curve.points else None
 
     return _gathered(matching(results, **match), last, lambda r, change: change.concerns_stage(r, stage), scale)
 
@@ -125,7 +128,8 @@ def exception_shares(results: list[JobResult], eval_names: list[str]) -> tuple[d
 
 def record_shares(records: list[tuple[JobResult, str]]) -> tuple[dict[str, float], int]:
     """`exception_shares` of the given (result, evaluation name) pairs."""
-    shares = [r.evals[name]["exceptions"] for r, name in records if "exceptions" in r.evals.get(name, {})]
+    evaluations = [r.evals.get(name) for r, name in records]
+    shares = [e.exceptions for e in evaluations if e is not None and e.exceptions is not None]
     if not shares:
         return {}, 0
     kinds = sorted({kind for s in shares for kind in s})
@@ -140,11 +144,12 @@ EVENTS = {"falls": "a fall", "robot_contacts": "robots touching", "object_tilts"
 def event_shares(results: list[JobResult], eval_name: str) -> tuple[dict[str, float], int]:
     """% of the evaluation's episodes in which each event of `EVENTS` happened (mean over the records that count
     events; those before them count none), and how many records that is."""
-    counts = [r.evals[eval_name]["events"] for r in results if "events" in r.evals.get(eval_name, {})]
+    evaluations = [r.evals.get(eval_name) for r in results]
+    counts = [e.events for e in evaluations if e is not None and e.events is not None]
     if not counts:
         return {}, 0
     kinds = [kind for kind in EVENTS if all(kind in c for c in counts)]
-    return {kind: 100.0 * float(np.mean([c[kind]["episode_share"] for c in counts])) for kind in kinds}, len(counts)
+    return {kind: 100.0 * float(np.mean([c[kind].episode_share for c in counts])) for kind in kinds}, len(counts)
 
 
 def events_finding(arms: dict[str, list[JobResult]], eval_name: str, what: str) -> list[Finding]:

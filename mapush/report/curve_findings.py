@@ -10,11 +10,12 @@ import dataclasses
 import numpy as np
 
 from mapush.eval.curve_points import clean_rate, first_reaching, tail_gain
+from mapush.experiments.job_records import Curve
 from mapush.experiments.results import JobResult
 from mapush.report.formats import Finding, counted
 
 
-def curve_of(result: JobResult, stage: str | None = None) -> dict | None:
+def curve_of(result: JobResult, stage: str | None = None) -> Curve | None:
     """A job's learning curve: its evaluated stage's (`stage` None), or the own curve of the stage named."""
     return result.curve if stage is None else (result.stage_curves or {}).get(stage)
 
@@ -27,7 +28,7 @@ def curve_made_otherwise(result: JobResult, stage: str | None = None) -> bool:
     if change is None or curve_of(result, stage) is None:
         return False
     if stage is None:
-        return change.concerns(result, result.curve.get("eval", ""))
+        return change.concerns(result, result.curve.eval or "")
     return change.concerns_stage(result, stage)
 
 
@@ -39,7 +40,7 @@ def drawn_stages(results: list[JobResult]) -> list[str]:
 def seed_curves(results: list[JobResult], stage: str | None = None) -> list[list[dict]]:
     """The curve points of each result that has a curve (one list per training seed)."""
     curves = (curve_of(r, stage) for r in results)
-    return [c["points"] for c in curves if c and c["points"]]
+    return [c.points for c in curves if c and c.points]
 
 
 def mean_curve(per_seed: list[list[dict]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -55,9 +56,9 @@ def reach_values(results: list[JobResult]) -> tuple[list[float], list[str], int]
     values, sources, unreached = [], [], 0
     for r in results:
         curve = r.curve
-        if not curve or not curve["points"]:
+        if not curve or not curve.points:
             continue
-        hit = first_reaching(curve["points"], float(curve["reach"]))
+        hit = first_reaching(curve.points, float(curve.reach))
         if hit is None:
             unreached += 1
         else:
@@ -72,20 +73,20 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     budget that has done its work) (the success gained over the last `tail` of the env-steps, mean over seeds, below
     `max_gain`), and where the mean curve peaked when that tail lost `max_gain` or more (a budget past the peak is
     no better than a shorter one); None without curves. It holds when the budget has flattened (and learned)."""
-    with_curves = [(r, c) for r, c in ((r, curve_of(r, stage)) for r in results) if c and c["points"]]
+    with_curves = [(r, c) for r, c in ((r, curve_of(r, stage)) for r in results) if c and c.points]
     if not with_curves:
         return None
     curves = [c for _, c in with_curves]
-    rule = curves[0]["rule"]
-    at_zero = [(r, c) for r, c in with_curves if all(point["success_rate"] == 0 for point in c["points"])]
+    rule = curves[0].rule
+    at_zero = [(r, c) for r, c in with_curves if all(point["success_rate"] == 0 for point in c.points)]
     if len(at_zero) == len(curves):
-        checkpoints = sum(len(c["points"]) for c in curves)
+        checkpoints = sum(len(c.points) for c in curves)
         text = f"{label}: did not learn: 0 % success at every one of {checkpoints} evaluated checkpoints"
         return Finding(text, False, {"checkpoints": checkpoints})
-    gains = [g for g in (tail_gain(c["points"], float(rule["tail"])) for c in curves) if g is not None]
+    gains = [g for g in (tail_gain(c.points, float(rule.tail)) for c in curves) if g is not None]
     if not gains:
         return Finding(f"{label}: too few checkpoints to judge the budget")
-    gain, max_gain = clean_rate(np.mean(gains)), clean_rate(rule["max_gain"])  # compared as printed
+    gain, max_gain = clean_rate(np.mean(gains)), clean_rate(rule.max_gain)  # compared as printed
     mean, std, limit = 100 * gain, 100 * clean_rate(np.std(gains)), 100 * max_gain
     numbers = {"tail_gain_points": mean, "tail_gain_std": std, "limit_points": limit}
     if gain >= max_gain:
@@ -93,7 +94,7 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     elif gain > -max_gain:
         verdict = "flattened"
     else:  # lost as much as the rule lets a flat curve gain: the budget runs past the curve's peak
-        x, rates, _ = mean_curve([c["points"] for c in curves])
+        x, rates, _ = mean_curve([c.points for c in curves])
         peak = int(np.argmax(rates))
         verdict = (
             f"flattened, then falling: the mean curve peaked at {100 * rates[peak]:.1f} % "
@@ -101,11 +102,11 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
         )
     seeds = counted(len(gains), "seed")
     text = (
-        f"{label}: the last {100 * float(rule['tail']):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
+        f"{label}: the last {100 * float(rule.tail):.0f} % of the budget added {mean:+.1f} \u00b1 {std:.1f} "
         f"points over {seeds} (rule: < {limit:.0f}): {verdict}"
     )
     if at_zero:  # the mean hides a seed that never learned: say which
-        named = ", ".join(f"{r.seed} ({len(c['points'])} checkpoints)" for r, c in at_zero)
+        named = ", ".join(f"{r.seed} ({len(c.points)} checkpoints)" for r, c in at_zero)
         text += f"; did not learn (0 % at every checkpoint): {'seeds' if len(at_zero) > 1 else 'seed'} {named}"
         numbers["seeds_not_learned"] = len(at_zero)
     return Finding(text, gain < max_gain, numbers)

@@ -219,7 +219,9 @@ def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: floa
     )
     numbers = {"ours_sr": mean, "paper_sr": paper_sr, "ours_ct": ct, "paper_ct": paper_ct}
     lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers)]
-    timeouts = {r.evals.get("main", {}).get("timeout_s") for r in matching(mine, method="ours", task=task)}
+    timeouts = {
+        r.evals["main"].timeout_s if "main" in r.evals else None for r in matching(mine, method="ours", task=task)
+    }
     mine_t, paper_t = success_time(mean / 100, ct), success_time(paper_sr / 100, paper_ct)
     if len(timeouts) == 1 and None not in timeouts and mine_t is not None and paper_t is not None:
         (timeout,) = timeouts
@@ -238,7 +240,7 @@ def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | N
     if not per_seed:
         return "", None
     x, rates, _ = curve_findings.mean_curve(per_seed)
-    tail = float(next(r.curve for r in results if r.curve)["rule"]["tail"])
+    tail = float(next(r.curve for r in results if r.curve).rule.tail)
     points = [{"env_steps": float(e), "success_rate": float(v)} for e, v in zip(x, rates, strict=True)]
     needed = steps_to_reach(points, rate_pct / 100, tail)
     budget = f"{x[-1] / 1e6:.1f}M env-steps"
@@ -254,7 +256,7 @@ def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: flo
     """Where the jobs of a longer budget (`longer`) trained the learner of `results` past their budget: the env-steps
     at which their mean curve first reached `rate_pct` and where it ended, as the end of a finding line and its
     numbers (marked when those jobs were made by an earlier recipe); nothing when no longer curve is there."""
-    ends = [c["points"][-1]["env_steps"] for c in (r.curve for r in results) if c and c["points"]]
+    ends = [c.points[-1]["env_steps"] for c in (r.curve for r in results) if c and c.points]
     per_seed = curve_findings.seed_curves(longer)
     if not (ends and per_seed):
         return "", {}

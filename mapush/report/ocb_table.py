@@ -19,9 +19,7 @@ def ocb_table(results: list[JobResult], variant: str) -> Table:
         columns += [f"S.R. (%), {paper['eval_labels'][name]}", f"C.T. (s), {paper['eval_labels'][name]}"]
     curve = next((r.curve for r in mine if r.curve), None)
     if curve:
-        columns.append(
-            f"Env-steps (M) to {100 * float(curve['reach']):.0f} % S.R., {paper['eval_labels'][curve['eval']]}"
-        )
+        columns.append(f"Env-steps (M) to {100 * float(curve.reach):.0f} % S.R., {paper['eval_labels'][curve.eval]}")
     for method in paper["methods"]:
         cells = []
         for name in paper["evals"]:
@@ -48,7 +46,7 @@ def ocb_table(results: list[JobResult], variant: str) -> Table:
         missing,
         f"Free space, 1.5 m cuboid of 6 kg, 2 robots, subgoals 1.5-3 m away; {OVER_SEEDS}.",
         findings,
-        {f"OCB ablation, {paper['eval_labels'][curve['eval']]}" if curve else "": arms},
+        {f"OCB ablation, {paper['eval_labels'][curve.eval]}" if curve else "": arms},
         reading="ours (paper)",
     )
 

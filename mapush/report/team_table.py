@@ -18,15 +18,17 @@ from mapush.report.physics import capacity_margin, known_physics
 TEAM = group_file("experiment", "team")
 
 
-def eval_masses(results: list[JobResult]) -> dict[str, float]:
-    """Each evaluation of the study and the object mass (kg) it set, as its jobs recorded it (`object_mass`); an
-    evaluation no job made is left out."""
-    masses = {}
-    for name in TEAM.evals:
-        mass = next((m for m in (r.object_mass(name) for r in results) if m is not None), None)
-        if mass is not None:
-            masses[name] = mass
-    return masses
+def eval_masses(results: list[JobResult]) -> dict[str, float | None]:
+    """Each evaluation of the study and the object mass (kg) it set, as its jobs recorded it (`object_mass`); None
+    for an evaluation no job made (or none that knows its mass)."""
+    return {
+        name: next((m for m in (r.object_mass(name) for r in results) if m is not None), None) for name in TEAM.evals
+    }
+
+
+def _kg(name: str, mass: float | None) -> str:
+    """A mass column's label: its mass, or the evaluation's name where no job recorded the mass."""
+    return name if mass is None else f"{mass:g} kg"
 
 
 def team_table(results: list[JobResult], variant: str) -> Table | None:
@@ -54,17 +56,17 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
             drawn_alone = all(cell.values for cell in each)
             cells = each if drawn_alone else ranged
             for cell, (name, mass) in zip(cells, masses.items(), strict=True):
-                margin = physics[task] and capacity_margin(physics[task], mass, n)
+                margin = None if physics[task] is None or mass is None else capacity_margin(physics[task], mass, n)
                 cell.note = f"margin {margin:.2f}" if margin is not None else ""
                 cell.note += f" {ALONE}" if drawn_alone else ""
                 if jobs and not cell.values:
-                    missing.append(f"{label} / {mass:g} kg: no job evaluated it ({name})")
+                    missing.append(f"{label} / {_kg(name, mass)}: no job evaluated it ({name})")
             if not jobs and not drawn_alone:
                 missing.append(f"{label}: no finished job")
             if drawn_alone:
                 drawn.append(label)
                 records[task, n] = [(r, name) for name, behind in at.items() for r in behind]
-                alone_lines |= {f"{label} at {masses[name]:g} kg alone": behind for name, behind in at.items()
+                alone_lines |= {f"{label} at {_kg(name, masses[name])} alone": behind for name, behind in at.items()
                                 if all(_curve_eval(r) == name for r in behind)}  # fmt: skip  # a curve at its own mass
             else:
                 records[task, n] = [(r, name) for r in jobs for name in masses]
@@ -83,7 +85,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
         f"team_{variant}",
         f"When is a team needed? Mid level, S.R. (%) by object mass ({variant})",
         ["Object", "Robots"],
-        [f"{mass:g} kg" for mass in masses.values()],
+        [_kg(name, mass) for name, mass in masses.items()],
         rows,
         missing,
         "The mid level alone on its 20 s pushes, one policy per robot count trained over masses of "
@@ -100,7 +102,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
 
 def _curve_eval(result: JobResult) -> str | None:
     """The evaluation a job's learning curve was measured at (the study's curves are all at one mass)."""
-    return (result.curve or {}).get("eval")
+    return result.curve.eval if result.curve else None
 
 
 def _range_text(mine: list[JobResult]) -> str:
@@ -109,7 +111,7 @@ def _range_text(mine: list[JobResult]) -> str:
     return "an unrecorded range" if ranged is None else f"{ranged[0]}-{ranged[1]} kg"
 
 
-def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
+def _findings(rows: list, masses: dict[str, float | None]) -> list[Finding]:
     """Per object and mass, the fewest robots that reach half success, and the margin they push at."""
     found = []
     by_task: dict[str, list] = {}
@@ -117,16 +119,15 @@ def _findings(rows: list, masses: dict[str, float]) -> list[Finding]:
         by_task.setdefault(task, []).append((int(n), cells))
     for task, team_rows in by_task.items():
         parts, fewest = [], {}
-        for k, mass in enumerate(masses.values()):
+        for k, (name, mass) in enumerate(masses.items()):
             done = [(n, cells[k]) for n, cells in team_rows if cells[k].values]
             if not done:
                 continue
             enough = sorted(((n, c) for n, c in done if c.mean >= 50.0), key=lambda nc: nc[0])  # the fewest first
-            parts.append(
-                f"{mass:g} kg: {enough[0][0]} ({enough[0][1].note})" if enough else f"{mass:g} kg: none of {len(done)}"
-            )
+            at = _kg(name, mass)
+            parts.append(f"{at}: {enough[0][0]} ({enough[0][1].note})" if enough else f"{at}: none of {len(done)}")
             if enough:
-                fewest[f"{mass:g}_kg_robots"] = enough[0][0]
+                fewest[f"{at.replace(' ', '_')}_robots"] = enough[0][0]
         if parts:
             found.append(Finding(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts),
                                  numbers=fewest))  # fmt: skip
@@ -153,7 +154,7 @@ def _exception_findings(records: dict[tuple[str, int], list[tuple[JobResult, str
 
 
 def _one_mass_findings(
-    results: list[JobResult], variant: str, rows: list, mine: list[JobResult], masses: dict[str, float]
+    results: list[JobResult], variant: str, rows: list, mine: list[JobResult], masses: dict[str, float | None]
 ) -> list[Finding]:
     """Per object and robot count, the study's design checked: does a policy trained over the mass range learn as
     well as a mid level of the same object and robots trained at the object's own mass (another table's jobs: the
@@ -167,11 +168,13 @@ def _one_mass_findings(
         if own_physics is None:
             continue
         own, evaluated = own_physics.mass_kg, list(masses.values())
-        below = max((m for m in evaluated if m <= own), default=None)
-        above = min((m for m in evaluated if m >= own), default=None)
-        near = [k for k, mass in enumerate(evaluated) if mass in (below, above) and cells[k].values]
+        below = max((m for m in evaluated if m is not None and m <= own), default=None)
+        above = min((m for m in evaluated if m is not None and m >= own), default=None)
+        near = [
+            k for k, mass in enumerate(evaluated) if mass is not None and mass in (below, above) and cells[k].values
+        ]
         jobs = matching(mine, task=task, num_agents=int(n))
-        budgets = [r.curve["points"][-1]["env_steps"] for r in jobs if r.curve and r.curve["points"]]
+        budgets = [r.curve.points[-1]["env_steps"] for r in jobs if r.curve and r.curve.points]
         if not near or not budgets:
             continue
         budget = max(budgets)
@@ -234,7 +237,7 @@ def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]
 
 
 def _fixed_mass_findings(
-    alone_rows: list, ranged_rows: list, masses: dict[str, float], range_text: str
+    alone_rows: list, ranged_rows: list, masses: dict[str, float | None], range_text: str
 ) -> list[Finding]:
     """The study's design checked directly where a sweep trained the same robots at one of the evaluated masses
     alone (`mapush sweep experiment=team agents=1 task.object.mass_range=null task.object.mass=8.0`): the same
@@ -242,12 +245,12 @@ def _fixed_mass_findings(
     rows of each, cell by cell)."""
     found = []
     for ((task, n), cells), (_, alone) in zip(ranged_rows, alone_rows, strict=True):
-        for ranged, one, mass in zip(cells, alone, masses.values(), strict=True):
+        for ranged, one, (name, mass) in zip(cells, alone, masses.items(), strict=True):
             if not one.values or not ranged.values:
                 continue
             text = (
-                f"{task} / {counted(int(n), 'robot')} at {mass:g} kg: trained over {range_text}, "
-                f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {mass:g} kg alone "
+                f"{task} / {counted(int(n), 'robot')} at {_kg(name, mass)}: trained over {range_text}, "
+                f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {_kg(name, mass)} alone "
                 f"({counted(len(one.values), 'seed')}), {one.mean:.1f} \u00b1 {one.std:.1f} %"
             )
             found.append(_weighed(text, ranged.mean, one.mean, one.std + ranged.std))

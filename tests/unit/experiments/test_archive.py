@@ -84,14 +84,14 @@ def test_a_job_in_the_runs_and_the_archive_counts_once_the_newer_result(runs, tm
     (job / RESULT).write_text(json.dumps(newer))
 
     results = load_results([runs, archive])
-    assert [(r.seed, r.evals["main"]["success_rate"]) for r in results] == [(0, 0.8), (1, 0.9)]
+    assert [(r.seed, r.evals["main"].success_rate) for r in results] == [(0, 0.8), (1, 0.9)]
     assert str(runs) in results[1].job_dir  # the newer: still in the runs dir
     assert str(runs) in results[0].job_dir  # the same in both: the first root's
 
     archive_results(runs, archive)  # the rerun and the result it superseded both reach the archive
     shutil.rmtree(runs)
     results = load_results([archive])
-    assert results[1].evals["main"]["success_rate"] == 0.9
+    assert results[1].evals["main"].success_rate == 0.9
     assert measured_cost(results)["evaluated_again"] == 1
 
 

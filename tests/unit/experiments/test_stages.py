@@ -525,7 +525,7 @@ def test_a_job_another_sweep_made_already_is_its_twin_until_an_evaluation_or_cur
     found, evals, curve = twin(made)
     assert Path(found.job_dir) == donor.parent and sorted(evals) == sorted(scale.experiment.evals)
     assert "path_only" not in evals  # what the study asks for, not all the main job made
-    assert curve["eval"] == "main" and curve["rule"] == OmegaConf.to_container(scale.experiment.budget_rule)
+    assert curve.eval == "main" and curve.record()["rule"] == OmegaConf.to_container(scale.experiment.budget_rule)
     assert twin({**made, "stage_curves": None}) is None  # the study asks for the mid level's own curve
     assert twin({**made, "curve": None}) is None
     fewer = {**made, "evals": {n: {**e, "episodes": 49} for n, e in made["evals"].items()}}
@@ -667,7 +667,7 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
     checkpoints = sorted(Path(again.stages["mid"]).glob("model_*.pt"))
     third = run_job(shorter, job, 1)
     assert third.evals["t20"] == again.evals["t20"] and third.curve == again.curve
-    assert third.evals["t40"]["overrides"] == ["level.episode_length_s=30", "level.episode_length_s=1"]
+    assert third.evals["t40"].overrides == ["level.episode_length_s=30", "level.episode_length_s=1"]
     assert sorted(Path(third.stages["mid"]).glob("model_*.pt")) == checkpoints  # nothing trained
     assert third.supersedes == SUPERSEDED and read_result(job / SUPERSEDED) == again
     # a legged evaluation names the locomotion policy that walked its robots; another one makes it stale
@@ -676,20 +676,20 @@ def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(
         config_name="sweep",
     )
     fourth = run_job(legged, job, 1)
-    walker = fourth.evals["t40"]["lowlevel_policy"]
+    walker = fourth.evals["t40"].lowlevel_policy
     shipped = Path(walker["file"])
     assert shipped.name == "policy.pt" and walker["sha256"] == hashlib.sha256(shipped.read_bytes()).hexdigest()[:16]
-    assert "lowlevel_policy" not in fourth.evals["t20"]  # the tracker has no policy
+    assert fourth.evals["t20"].lowlevel_policy is None  # the tracker has no policy
     assert result_changes(fourth, legged, planned_stages(legged)) is None
     gone = {name: str(tmp_path / "gone" / Path(path).relative_to(tmp_path)) for name, path in fourth.stages.items()}
     elsewhere = dataclasses.replace(fourth, stages=gone)  # the same stages' runs, on a machine that is not this one
-    elsewhere.evals = {**fourth.evals, "t40": {**fourth.evals["t40"]}}
-    elsewhere.evals["t40"]["lowlevel_policy"] = {**walker, "file": "/another/checkout/policy.pt"}
+    elsewhere.evals = {**fourth.evals, "t40": dataclasses.replace(fourth.evals["t40"])}
+    elsewhere.evals["t40"].lowlevel_policy = {**walker, "file": "/another/checkout/policy.pt"}
     assert result_changes(elsewhere, legged, planned_stages(legged)) is None  # the same policy in another checkout
-    fourth.evals["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # as if the shipped policy had been replaced
+    fourth.evals["t40"].lowlevel_policy["sha256"] = "0" * 16  # as if the shipped policy had been replaced
     stale = "evaluation 't40' walked its robots with another locomotion policy than now"
     assert str(result_changes(fourth, legged, planned_stages(legged))) == stale
-    elsewhere.evals["t40"]["lowlevel_policy"]["sha256"] = "0" * 16  # and its runs gone: the plan says which
+    elsewhere.evals["t40"].lowlevel_policy["sha256"] = "0" * 16  # and its runs gone: the plan says which
     assert str(result_changes(elsewhere, legged, planned_stages(legged))) == stale
 
 

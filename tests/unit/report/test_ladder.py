@@ -92,9 +92,12 @@ def test_the_fall_shares_come_from_the_evaluations_events():
 def test_a_fall_cell_reads_the_events_count_and_before_events_the_share_a_fall_ended():
     from mapush.report.cells import events_finding, fall_cell
 
-    counted_ = JobResult(method="ours", evals={"main": {"events": {"falls": {"episode_share": 0.7}},
-                                                        "exceptions": {}}}, job_dir="a")  # fmt: skip
-    before = JobResult(method="ours", evals={"main": {"exceptions": {"robot_tilt": 0.3}}}, job_dir="b")
+    events = {"falls": {"episode_share": 0.7}}
+    counted_ = JobResult(method="ours", evals={"main": {"success_rate": 0.2, "events": events, "exceptions": {}}},
+                         job_dir="a")  # fmt: skip
+    before = JobResult(
+        method="ours", evals={"main": {"success_rate": 0.2, "exceptions": {"robot_tilt": 0.3}}}, job_dir="b"
+    )
     assert fall_cell([counted_, before], eval="main").values == [70.0, 30.0]
     (line,) = events_finding({"Ours": [counted_]}, "main", "Cuboid")  # events a record lacks are left out
     assert line.text.startswith("Cuboid: episodes with (mean over seeds): Ours a fall 70 %")

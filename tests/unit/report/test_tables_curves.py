@@ -240,7 +240,7 @@ def test_the_main_tables_findings_from_hand_made_results():
     # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
     assert len(found) == 9 and found[8].holds is False
     assert found[8].numbers == pytest.approx({"baseline_sr": 65.0, "ours_sr": 65.0})
-    results[3].evals["go1"]["success_rate"] = 0.80  # (40 + 80) / 2 = 60.0
+    results[3].evals["go1"].success_rate = 0.80  # (40 + 80) / 2 = 60.0
     assert _main_findings(results, PAPER["main"], "cuboid")[8].holds is True
     assert _main_findings(results, PAPER["main"], "tblock") == []
 
