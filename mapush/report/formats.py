@@ -40,6 +40,12 @@ class Cell:
     unreached: int = 0  # seeds that never reached what the cell measures (e.g. env-steps to 50 % success)
     otherwise: int = 0  # seeds from jobs made otherwise than their experiment plans now (an earlier recipe)
     note: str = ""  # what the cell stands beside, in brackets after its value (e.g. the team study's margin)
+    mark: str = ""  # a mark after the note (ALONE: drawn from policies trained at the cell's mass alone)
+
+    @property
+    def bracket(self) -> str:
+        """What the brackets after its value hold: the note, then the mark."""
+        return self.note + (f" {self.mark}" if self.mark else "")
 
     def text(self) -> str:
         digits = self.digits
@@ -50,8 +56,8 @@ class Cell:
             ours = self._ours()
         if self.otherwise:
             ours += f" {OTHERWISE}"
-        if self.note:
-            ours += f" [{self.note}]"
+        if self.bracket:
+            ours += f" [{self.bracket}]"
         if self.paper is None:
             return ours
         given = max(digits, *(_decimals(x) for x in self.paper))  # the paper's numbers as it gives them: 0.23, not 0.2
@@ -80,7 +86,7 @@ class Cell:
             "seeds": len(self.values),
             "unreached": self.unreached,
             "made_otherwise": self.otherwise,
-            "note": self.note,
+            "note": self.bracket,
             "paper": list(self.paper) if self.paper else None,
             "values": self.values,
             "sources": self.sources,

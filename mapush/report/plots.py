@@ -115,16 +115,15 @@ def team_plot(table: Table, path: Path) -> None:
         for i, (_, cells) in enumerate(rows):
             for j, cell in enumerate(cells):
                 value = "n/a" if cell.mean is None else f"{cell.mean:.0f} %"
-                value += f" {ALONE}" if ALONE in cell.note else ""  # the mark by the value: the margin fills its line
-                note = cell.note.replace(f" {ALONE}", "")
-                ax.text(j, i, f"{value}\n{note}", ha="center", va="center", fontsize=7, color="w")
+                value += f" {cell.mark}" if cell.mark else ""  # the mark by the value: the margin fills its line
+                ax.text(j, i, f"{value}\n{cell.note}", ha="center", va="center", fontsize=7, color="w")
         ax.set_xticks(range(len(table.columns)), table.columns)
         ax.set_yticks(range(len(rows)), [str(n) for n, _ in rows])
         ax.set_xlabel("object mass")
         ax.set_ylabel("robots")
         ax.set_title(task)
         fig.colorbar(image, ax=ax, label="S.R. (%)")
-    alone = any(ALONE in cell.note for _, cells in table.rows for cell in cells)
+    alone = any(cell.mark == ALONE for _, cells in table.rows for cell in cells)
     fig.suptitle(table.title + (f"\n{ALONE_LEGEND}" if alone else ""), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

@@ -58,7 +58,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
             for cell, (name, mass) in zip(cells, masses.items(), strict=True):
                 margin = None if physics[task] is None or mass is None else capacity_margin(physics[task], mass, n)
                 cell.note = f"margin {margin:.2f}" if margin is not None else ""
-                cell.note += f" {ALONE}" if drawn_alone else ""
+                cell.mark = ALONE if drawn_alone else ""
                 if jobs and not cell.values:
                     missing.append(f"{label} / {_kg(name, mass)}: no job evaluated it ({name})")
             if not jobs and not drawn_alone:
@@ -125,7 +125,7 @@ def _findings(rows: list, masses: dict[str, float | None]) -> list[Finding]:
                 continue
             enough = sorted(((n, c) for n, c in done if c.mean >= 50.0), key=lambda nc: nc[0])  # the fewest first
             at = _kg(name, mass)
-            parts.append(f"{at}: {enough[0][0]} ({enough[0][1].note})" if enough else f"{at}: none of {len(done)}")
+            parts.append(f"{at}: {enough[0][0]} ({enough[0][1].bracket})" if enough else f"{at}: none of {len(done)}")
             if enough:
                 fewest[f"{at.replace(' ', '_')}_robots"] = enough[0][0]
         if parts:

@@ -651,7 +651,7 @@ def test_a_row_trained_at_every_mass_alone_is_drawn_from_those_policies_and_mark
     table = team_table(ranged + alone, "quick")
     cells = dict((tuple(labels), cells) for labels, cells in table.rows)[("cylinder", "1")]
     assert [c.mean for c in cells] == pytest.approx([40.0, 30.0, 30.0, 0.0])  # not the range's 10 / 10 / 20 / 0
-    assert all(c.note.endswith(ALONE) for c in cells) and "(cylinder / 1 robot)" in table.note
+    assert all(c.mark == ALONE for c in cells) and "(cylinder / 1 robot)" in table.note
     found = [str(f) for f in table.findings]
     check = (
         "cylinder / 1 robot at 2 kg: trained over 2.0-64.0 kg, 10.0 \u00b1 0.0 %; trained at 2 kg alone (2 seeds), "
