@@ -77,7 +77,7 @@ def _read(path: Path) -> Plan | None:
             (job["combo"], _job_config(job["cfg"]), [_stage(stage) for stage in job["stages"]])
             for job in record["jobs"]
         ]
-    except (OSError, ValueError, KeyError, TypeError):  # absent, cut or of another layout: composed again
+    except Exception:  # absent, cut, altered or of another layout: a cache, so composed again, whatever it holds
         return None
 
 
@@ -102,6 +102,8 @@ def remember(full: list[str], plan: Plan) -> None:
 
 def _job_config(container: dict) -> DictConfig:
     """A job's config as `compose_config` returns it: struct mode on, so that a wrong key still fails."""
+    if not isinstance(container, dict):
+        raise ValueError(f"a job's config is a mapping, not {type(container).__name__}")
     cfg = OmegaConf.create(container)
     OmegaConf.set_struct(cfg, True)
     return cfg

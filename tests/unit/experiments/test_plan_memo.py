@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 
 import pytest
@@ -62,7 +63,12 @@ def test_a_damaged_memo_is_composed_again(cache, monkeypatch):
     full = sweep_overrides(SMALL)
     composed = planned_jobs(full)
     (memo,) = cache.glob("*.json")
+    whole = json.loads(memo.read_text())
     memo.write_text(memo.read_text()[:100])  # cut
     monkeypatch.setattr(plan_memo, "_READ", {})
     assert plan_memo.recall(full) is None
+    for altered in ({**whole, "jobs": 5}, {"jobs": [{**whole["jobs"][0], "cfg": "${oops"}]}):
+        memo.write_text(json.dumps(altered))
+        monkeypatch.setattr(plan_memo, "_READ", {})
+        assert plan_memo.recall(full) is None
     assert _as_data(planned_jobs(full)) == _as_data(composed)
