@@ -22,7 +22,7 @@ DEFAULT_NAME = "tracker_calibrated"
 """The option calibrate writes unless `--name` says otherwise."""
 NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
 """What a `lowlevel=` option's name may be: one word of a file name, as `schema.NAMES` wants of `lowlevel.name`."""
-PLAIN_PATH = re.compile(r"[A-Za-z0-9_./~+-]+")
+PLAIN_PATH = re.compile(r"[A-Za-z0-9_./+-]+")
 """A path Hydra's override grammar reads unquoted inside a list."""
 
 

@@ -89,16 +89,19 @@ def tracker_capacity(lowlevel: dict, speed: float) -> float:
     return min(float(lowlevel["max_force"]), float(lowlevel["mass"]) / float(lowlevel["lag"]) * speed)
 
 
-def evaluated_mass(physics: ObjectPhysics, overrides: list[str]) -> float:
-    """kg; the object's mass in an evaluation of a job made on `physics` under `overrides` (the team study's set
-    `task.object.mass=M`); the trained mass where they set none."""
-    mass = physics.mass_kg
-    parser = OverridesParser.create()
-    for text in overrides:
-        override = parser.parse_override(text)
-        if override.key_or_group == MASS and override.value() is not None:
-            mass = float(override.value())
-    return mass
+def evaluated_mass(physics: ObjectPhysics, overrides: list[str]) -> float | None:
+    """kg; the object's one mass in an evaluation of a job made on `physics` under `overrides` (the team study's
+    `task.object.mass_range=null task.object.mass=M`): the trained mass where they set none; None where the mass
+    is drawn per episode (a range the overrides leave on or set) or not known (its `mass` removed or null: the
+    parts' own, which `physics` does not hold apart)."""
+    ranged, mass = physics.mass_range_kg is not None, physics.mass_kg
+    for override in map(OverridesParser.create().parse_override, overrides):
+        cleared = override.is_delete() or override.value() is None
+        if override.key_or_group == MASS_RANGE:
+            ranged = not cleared
+        elif override.key_or_group == MASS:
+            mass = None if cleared else float(override.value())
+    return None if ranged else mass
 
 
 def stage_config(result, name: str) -> dict | None:
@@ -119,6 +122,18 @@ def physics_from_stages(result) -> ObjectPhysics | None:
     name = PUSHING_STAGE if PUSHING_STAGE in result.stages else next(iter(result.stages), None)
     cfg = stage_config(result, name) if name else None
     return None if cfg is None else object_physics(cfg, pushes=name == PUSHING_STAGE)
+
+
+def trained_mass(result) -> float | None:
+    """kg; the one mass a job's policy trained at: from its physics, or where no stage record holds them, from its
+    stage overrides (`task.object.mass_range=null task.object.mass=M`); None where it trained over a range or the
+    records are gone and its overrides set no one mass."""
+    physics = result.object_physics()
+    if physics is not None:
+        return None if physics.mass_range_kg is not None else physics.mass_kg
+    given = {o.key_or_group: o for o in map(OverridesParser.create().parse_override, map(str, result.overrides))}
+    fixed = MASS_RANGE in given and given[MASS_RANGE].value() is None and MASS in given
+    return float(given[MASS].value()) if fixed and given[MASS].value() is not None else None
 
 
 def sets_mass(override: str) -> bool:

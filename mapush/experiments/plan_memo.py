@@ -2,20 +2,25 @@
 that composing them reads, so that a dry run (or a second launch) of an unchanged experiment answers in seconds.
 
 Composing and checking a job's stages is Hydra reading every config file anew (about half a second a config: a
-minute for the main table's 36 jobs). What that yields depends only on the command line's overrides, the mapush
-package's configs and code that compose and plan a job (`archive.composing_digest`), the files of any
-`hydra.searchpath` dir, the trusted modules (a config naming other code is refused when checked) and this
-machine's core count (`${cores:}`). The memo's file is named by the hash of all of these, so a change to any of
-them is a miss and the plan is composed (and checked) again; nothing is ever read under a key it was not written
-under. It lives in the user's cache dir (`$XDG_CACHE_HOME/mapush/plans`, or `MAPUSH_CACHE`), outside run dirs.
+minute for the main table's 36 jobs). What that yields is a function of the command line's overrides, the mapush
+package's configs and the code that composes and plans a job (`archive.composing_digest`, with Hydra's and
+OmegaConf's versions), the config files of any `hydra.searchpath` dir (its groups' YAML), the environment
+variables those configs read (`${oc.env:NAME}`) and mapush's own (`MAPUSH_*`), the trusted modules (a config
+naming other code is refused when checked) and this machine's core count (`${cores:}`). The memo's file is named
+by the hash of all of these, so a change to any of them is a miss and the plan is composed (and checked) again.
+What a hit skips is the check of the stages' configs against their envs (`sweep_axes._check_jobs`): a term
+function of yours that changed since is met when the job trains. The memo lives in the user's cache dir
+(`$XDG_CACHE_HOME/mapush/plans`, or `MAPUSH_CACHE`), outside run dirs; each caller gets its own copy.
 """
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import hashlib
 import json
 import os
+import re
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
@@ -47,11 +52,26 @@ def cache_dir() -> Path:
 
 def plan_key(full: list[str]) -> str:
     """The hash of everything a sweep's plan depends on (module docstring)."""
-    dirs = [config.CONF_DIR, *search_dirs(full)]  # the package's configs (or those put in their place) and the user's
-    searched = [files_digest(sorted(Path(d).rglob("*.yaml")), Path(d)) for d in dirs if Path(d).is_dir()]
+    dirs = [Path(config.CONF_DIR), *map(Path, search_dirs(full))]  # the package's configs (or their stand-in), yours
+    found = [(d, sorted(_config_files(d))) for d in dirs if d.is_dir()]
+    searched = [files_digest(paths, d) for d, paths in found]
+    read = sorted({name for _, paths in found for path in paths for name in ENV_READ.findall(path.read_text())})
+    env = [f"{name}={os.environ.get(name)}" for name in read]
+    env += sorted(f"{k}={v}" for k, v in os.environ.items() if k.startswith("MAPUSH_") and k != CACHE_ENV)
     parts = [f"format {FORMAT}", composing_digest(), *searched, json.dumps(full), ",".join(trusted_modules())]
-    parts.append(f"cores {os.cpu_count()}")
+    parts += [*env, f"cores {os.cpu_count()}"]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+ENV_READ = re.compile(r"oc\.env\s*:\s*([A-Za-z_][A-Za-z0-9_]*)")
+"""An environment variable a config reads (`${oc.env:NAME}`, `${oc.env:NAME,default}`)."""
+
+
+def _config_files(root: Path) -> list[Path]:
+    """The YAML that Hydra can compose from a config dir: its top level and its groups' dirs (those the package's
+    config tree has), not whatever else lies below it (a search path of `.` holds run dirs)."""
+    groups = {p.name for p in Path(config.CONF_DIR).iterdir() if p.is_dir()}
+    return [p for p in root.glob("*.yaml")] + [p for g in sorted(groups) for p in (root / g).rglob("*.yaml")]
 
 
 def _path(full: list[str]) -> Path:
@@ -67,7 +87,7 @@ def recall(full: list[str]) -> Plan | None:
     key = plan_key(full)
     if key not in _READ:
         _READ[key] = _read(cache_dir() / "plans" / f"{key}.json")
-    return _READ[key]
+    return copy.deepcopy(_READ[key])  # the caller's own: a plan handed out twice is never shared
 
 
 def _read(path: Path) -> Plan | None:
@@ -97,7 +117,7 @@ def remember(full: list[str], plan: Plan) -> None:
     with contextlib.suppress(OSError):
         path.parent.mkdir(parents=True, exist_ok=True)
         write_json(path, record)
-    _READ[path.stem] = plan
+    _READ[path.stem] = copy.deepcopy(plan)
 
 
 def _job_config(container: dict) -> DictConfig:

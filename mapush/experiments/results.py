@@ -172,6 +172,7 @@ class JobResult:
     # not in the file: where it was read, and what `mapush tables` found of it against its experiment now
     job_dir: str = field(default="", metadata={"in_file": False})
     made_otherwise: Change | None = field(default=None, metadata={"in_file": False})
+    physics_read: bool = field(default=False, metadata={"in_file": False}, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         """Evaluations and curves given as their records (`result.json`'s, or a job's as it makes them) become
@@ -212,8 +213,8 @@ class JobResult:
     def object_physics(self) -> ObjectPhysics | None:
         """Its object and one robot: as recorded, else (a job made before jobs recorded them) from its stages'
         records (`job_physics.physics_from_stages`); None where neither holds them."""
-        if self.physics is None:
-            self.physics = physics_from_stages(self)
+        if self.physics is None and not self.physics_read:  # read once, found or not
+            self.physics, self.physics_read = physics_from_stages(self), True
         return self.physics
 
     def object_mass(self, name: str) -> float | None:

@@ -166,12 +166,34 @@ def _check_jobs(overrides: list[str]) -> None:
     checked: set[tuple[str, ...]] = set()
     # the seed changes no stage's validity; the first seed's configs, composed here, are those a dry run plans next
     for combo in job_combos(overrides, seeds=False):
-        for _, stage_overrides in stages_with_overrides(compose_config(combo, config_name="sweep")):
+        job = compose_config(combo, config_name="sweep")
+        _check_curve_keys(job)
+        for _, stage_overrides in stages_with_overrides(job):
             key = tuple(o for o in stage_overrides if not stages.is_ref(o))
             if key not in checked:
                 checked.add(key)
                 plain = to_plain(compose_config(list(key)))
                 env_class(plain).validate(plain)
+
+
+CURVE_SPEC_KEYS = ("eval", "every_env_steps", "reach", "stages")
+"""What a budget's `curve:` may say; the rest of a result's curve (`job_records.Curve`) is drawn."""
+RULE_KEYS = ("tail", "max_gain")
+"""What an experiment's `budget_rule:` says (`job_records.CurveRule`)."""
+
+
+def _check_curve_keys(job: DictConfig) -> None:
+    """A budget's learning curve and the experiment's budget rule name only keys a result's curve holds: a job's
+    record is written after all its training, too late to find a typo there."""
+    curve = budget_of(job).get("curve") or {}
+    unknown = sorted(set(curve) - set(CURVE_SPEC_KEYS))
+    if unknown:
+        raise BadInput(f"budget {job.budget}'s curve has unknown keys {unknown}; valid: {', '.join(CURVE_SPEC_KEYS)}")
+    rule = set(job.experiment.get("budget_rule") or {})
+    if rule and rule != set(RULE_KEYS):
+        raise BadInput(
+            f"experiment {job.experiment.name}'s budget_rule has {sorted(rule)}; valid: {', '.join(RULE_KEYS)}"
+        )
 
 
 @dataclass(frozen=True)

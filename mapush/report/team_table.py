@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from mapush.config import group_file
-from mapush.experiments.job_physics import besides_mass, sets_mass
+from mapush.experiments.job_physics import besides_mass, sets_mass, trained_mass
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import collect, matching, named_shares, record_shares
@@ -42,7 +42,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
     alone = _made_as(results, mine)
     masses = eval_masses(mine + alone)
     physics = {task: known_physics(matching(mine + alone, task=task)) for task in TEAM.sweep.task}
-    capacity = next((p.robot_capacity_n for p in physics.values() if p is not None), None)
+    capacity = next((p.robot_capacity_n for p in physics.values() if p and p.robot_capacity_n is not None), None)
     rows, ranged_rows, alone_rows, missing, drawn, lines, records, alone_lines = [], [], [], [], [], {}, {}, {}
     for task in TEAM.sweep.task:
         for n in TEAM.sweep.agents:
@@ -219,10 +219,7 @@ def _one_mass_references(results: list[JobResult], variant: str, task: str, robo
 def fixed_mass(result: JobResult) -> float | None:
     """The one mass (kg) a team job's policy trained at, where its sweep set it (`task.object.mass_range=null
     task.object.mass=M` among the stage overrides); None for the study's own jobs, trained over the range."""
-    physics = result.object_physics()
-    if physics is None or physics.mass_range_kg is not None:
-        return None
-    return physics.mass_kg
+    return trained_mass(result)
 
 
 def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]:

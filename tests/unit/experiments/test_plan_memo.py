@@ -9,6 +9,7 @@ import pytest
 from omegaconf import OmegaConf
 
 from mapush.config import CONF_DIR
+from mapush.errors import BadInput
 from mapush.experiments import plan_memo, sweep_axes
 from mapush.experiments.sweep_axes import planned_jobs, sweep_overrides
 
@@ -72,3 +73,31 @@ def test_a_damaged_memo_is_composed_again(cache, monkeypatch):
         monkeypatch.setattr(plan_memo, "_READ", {})
         assert plan_memo.recall(full) is None
     assert _as_data(planned_jobs(full)) == _as_data(composed)
+
+
+def test_the_environment_a_config_reads_is_in_the_key_and_files_beside_the_groups_are_not(cache, tmp_path, monkeypatch):
+    mine = tmp_path / "mine"
+    (mine / "task").mkdir(parents=True)
+    task = (CONF_DIR / "task" / "cuboid.yaml").read_text().replace("name: cuboid", "name: envcube")
+    (mine / "task" / "envcube.yaml").write_text(task + "\nspawn_note: ${oc.env:PUSH_TEST_MU,0.4}\n")
+    full = [*SMALL, f"hydra.searchpath=[file://{mine}]"]
+    monkeypatch.delenv("PUSH_TEST_MU", raising=False)
+    monkeypatch.delenv("PLAN_MEMO_TEST_ONLY", raising=False)
+    key = plan_memo.plan_key(full)
+    monkeypatch.setenv("PLAN_MEMO_TEST_ONLY", "1")  # read by no config: the same plan
+    assert plan_memo.plan_key(full) == key
+    monkeypatch.setenv("PUSH_TEST_MU", "0.45")  # read by the task: another plan
+    assert plan_memo.plan_key(full) != key
+    monkeypatch.delenv("PUSH_TEST_MU")
+    (mine / "runs" / "a").mkdir(parents=True)
+    (mine / "runs" / "a" / "config.yaml").write_text("seed: 1\n")  # a run dir under the search path: no config
+    assert plan_memo.plan_key(full) == key
+    (mine / "task" / "envcube.yaml").write_text(task)
+    assert plan_memo.plan_key(full) != key
+
+
+def test_a_curve_or_budget_rule_with_keys_a_result_cannot_hold_is_refused_before_launch(cache):
+    with pytest.raises(BadInput, match=r"budget smoke's curve has unknown keys \['note'\]; valid: eval, "):
+        sweep_overrides([*SMALL, "+experiment.budgets.smoke.curve.note=x"])
+    with pytest.raises(BadInput, match=r"budget_rule has \['max_gain', 'tail', 'tial'\]; valid: tail, max_gain"):
+        sweep_overrides([*SMALL, "+experiment.budget_rule.tial=0.2"])
