@@ -16,7 +16,6 @@ function of yours that changed since is met when the job trains. The memo lives 
 from __future__ import annotations
 
 import contextlib
-import copy
 import hashlib
 import json
 import os
@@ -78,26 +77,55 @@ def _path(full: list[str]) -> Path:
     return cache_dir() / "plans" / f"{plan_key(full)}.json"
 
 
-_READ: dict[str, Plan | None] = {}
-"""Plans this process read or stored, by key: the sweep's check and its plan ask for the same one."""
+_READ: dict[str, str | None] = {}
+"""The memo files this process read or wrote, by key, as their text (None: none that reads back as a plan): the
+sweep's check and its plan ask for the same one, and each gets objects of its own built from it."""
+
+
+def known(full: list[str]) -> bool:
+    """Whether a plan is remembered for `full` (as `sweep_axes.sweep_overrides` returns it)."""
+    return _text(plan_key(full)) is not None
 
 
 def recall(full: list[str]) -> Plan | None:
-    """The plan remembered for `full` (as `sweep_axes.sweep_overrides` returns it), or None (a miss)."""
-    key = plan_key(full)
+    """The plan remembered for `full`, as objects of the caller's own, or None (a miss)."""
+    text = _text(plan_key(full))
+    return None if text is None else _plan(text)
+
+
+def _text(key: str) -> str | None:
     if key not in _READ:
-        _READ[key] = _read(cache_dir() / "plans" / f"{key}.json")
-    return copy.deepcopy(_READ[key])  # the caller's own: a plan handed out twice is never shared
+        try:
+            text = (cache_dir() / "plans" / f"{key}.json").read_text()
+        except OSError:
+            text = None
+        _READ[key] = text if text is not None and _well_formed(text) else None
+    return _READ[key]
 
 
-def _read(path: Path) -> Plan | None:
+def _well_formed(text: str) -> bool:
+    """Whether a memo file reads as a plan: every job its axes, a config mapping and stages of every field."""
+    fields = set(PlannedStage._fields)
     try:
-        record = json.loads(path.read_text())
+        jobs = json.loads(text)["jobs"]
+        return isinstance(jobs, list) and all(
+            isinstance(job["combo"], list)
+            and isinstance(job["cfg"], dict)
+            and all(isinstance(stage, dict) and set(stage) == fields for stage in job["stages"])
+            for job in jobs
+        )
+    except (ValueError, KeyError, TypeError):
+        return False
+
+
+def _plan(text: str) -> Plan | None:
+    try:
+        record = json.loads(text)
         return [
             (job["combo"], _job_config(job["cfg"]), [_stage(stage) for stage in job["stages"]])
             for job in record["jobs"]
         ]
-    except Exception:  # absent, cut, altered or of another layout: a cache, so composed again, whatever it holds
+    except Exception:  # cut, altered or of another layout: a cache, so composed again, whatever it holds
         return None
 
 
@@ -117,7 +145,7 @@ def remember(full: list[str], plan: Plan) -> None:
     with contextlib.suppress(OSError):
         path.parent.mkdir(parents=True, exist_ok=True)
         write_json(path, record)
-    _READ[path.stem] = copy.deepcopy(plan)
+    _READ[path.stem] = json.dumps(record)
 
 
 def _job_config(container: dict) -> DictConfig:

@@ -79,7 +79,7 @@ def sweep_overrides(overrides: list[str]) -> list[str]:
     for key, values in axes.items():
         if key not in given:
             full.append(f"{key}={','.join(str(v) for v in values)}")
-    if plan_memo.recall(full) is None:  # a remembered plan was composed and checked as it stands now
+    if not plan_memo.known(full):  # a remembered plan was composed and checked as it stands now
         _check_jobs(full)
     return full
 
