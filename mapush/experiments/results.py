@@ -173,6 +173,7 @@ class JobResult:
     job_dir: str = field(default="", metadata={"in_file": False})
     made_otherwise: Change | None = field(default=None, metadata={"in_file": False})
     physics_read: bool = field(default=False, metadata={"in_file": False}, repr=False, compare=False)
+    runs_found: tuple | None = field(default=None, init=False, metadata={"in_file": False}, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         """Evaluations and curves given as their records (`result.json`'s, or a job's as it makes them) become
@@ -232,8 +233,12 @@ class JobResult:
         return next((stage for stage, run in self.stages.items() if Path(run) in checkpoint.parents), None)
 
     def stage_runs(self) -> list[Path]:
-        """The run dirs of its stages, in training order (`stages.stage_paths`)."""
-        return stages.stage_paths(self.stages, self.job_dir)
+        """The run dirs of its stages, in training order (`stages.stage_paths`): looked up once for its stages and
+        job dir as they are (a table's cost lines ask thousands of times)."""
+        key = (tuple(self.stages.items()), str(self.job_dir))
+        if self.runs_found is None or self.runs_found[0] != key:
+            self.runs_found = (key, stages.stage_paths(self.stages, self.job_dir))
+        return list(self.runs_found[1])
 
 
 def _evaluation(given: Evaluation | dict) -> Evaluation:
