@@ -205,3 +205,20 @@ def eval_stage(cfg: DictConfig, spec) -> str:
     """The stage an evaluation runs: its own `stage`, or else the experiment's evaluated stage."""
     own = None if OmegaConf.is_list(spec) else spec.get("stage")
     return own or evaluated_stage(cfg)
+
+
+def experiment_evals(table: str | None) -> list[str]:
+    """The evaluations the experiments whose jobs fill `table` make (every experiment's when None), read from their
+    files as written: each one's `evals` and those its Hydra defaults take in (`- /ladder@evals: rungs`)."""
+    names = set()
+    for name in group_options("experiment"):
+        spec = group_file("experiment", name)
+        if table is not None and spec.get("table") != table:
+            continue
+        names |= set(spec.get("evals") or {})
+        for entry in spec.get("defaults") or []:
+            for target, option in entry.items() if hasattr(entry, "items") else []:
+                group, _, package = str(target).lstrip("/").partition("@")
+                if package == "evals":
+                    names |= set(group_file(group, option))
+    return sorted(names)

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import yaml
 
-from mapush.config import group_file, group_options
 from mapush.errors import BadInput
 from mapush.experiments.results import JobResult
+from mapush.experiments.stage_plan import experiment_evals
 from mapush.report.cells import collect, matching
 from mapush.report.formats import OVER_SEEDS, Cell, Finding, Table
 
@@ -72,22 +72,6 @@ def _choice(where: str, value, valid) -> None:
         raise BadInput(f"{where}: unknown {value!r}; valid: {', '.join(str(v) for v in valid)}")
 
 
-def known_evals(table: str | None) -> list[str]:
-    """The evaluations the experiments whose jobs fill `table` make (every experiment's when None): each one's
-    `evals` and those its defaults take in (`/ladder@evals: rungs`)."""
-    names = set()
-    for name in group_options("experiment"):
-        spec = group_file("experiment", name)
-        if table is not None and spec.get("table") != table:
-            continue
-        names |= set(spec.get("evals") or {})
-        for entry in spec.get("defaults") or []:
-            for group, option in entry.items() if hasattr(entry, "items") else []:
-                if str(group).endswith("@evals"):
-                    names |= set(group_file(str(group).lstrip("/").partition("@")[0], option))
-    return sorted(names)
-
-
 def load(path: Path) -> dict:
     """The declaration at `path`, checked: a one-line BadInput names any unknown key, claim kind, evaluation,
     metric, row or column, with the valid choices."""
@@ -103,7 +87,7 @@ def load(path: Path) -> dict:
         if len(label) != len(decl["row_header"]):
             raise BadInput(f"{where} row {row['id']!r}: {len(label)} labels for row_header {decl['row_header']}")
         rows[row["id"]] = {**row, "label": [str(x) for x in label]}
-    evals = known_evals(decl["jobs"].get("table"))
+    evals = experiment_evals(decl["jobs"].get("table"))
     for column in decl["columns"]:
         _keys(f"{where} column", column, COLUMN_KEYS, {"id", "label", "eval", "metric"})
         name = column["id"]

@@ -118,3 +118,20 @@ def test_imports_inside_functions_count():
     something)."""
     source = "import mapush.rundir\nfrom mapush import config, trust\ndef f():\n    from mapush.eval.rollout import x\n"
     assert mapush_imports(source) == {"rundir", "config", "trust", "eval"}
+
+
+REPORT_MUST_NOT = re.compile(
+    r"partition\(\"=\"\)|compose_config|apply_overrides|OverridesParser|initialize_config_dir|\bcompose\("
+)
+"""What composing a config or parsing an override looks like in code."""
+
+
+def test_the_report_reads_typed_results_and_never_composes_a_config_or_parses_an_override():
+    found = [
+        f"{p.relative_to(ROOT)}:{i}"
+        for p in sorted((ROOT / "mapush" / "report").rglob("*.py"))
+        for i, line in enumerate(p.read_text().splitlines(), 1)
+        if REPORT_MUST_NOT.search(line)
+    ]
+    assert found == []
+    assert REPORT_MUST_NOT.search('key, _, value = override.partition("=")')  # as the team table once did
