@@ -95,7 +95,7 @@ def calibrate(
             f"no first-order lag does; yaw_lag left as it was in {default_config_path()}"
         )
     else:
-        fitted["yaw_lag"] = round(yaw_lag, 4)  # 0.1 ms: as the package writes its lags
+        fitted["yaw_lag"] = yaw_lag
         warnings += [f"yaw_lag: {why}" for why in [at_grid_bound(yaw_lag)] if why]
     # push capacity and force-speed line, and falls under a held load
     push = cap.push_sweep(reference, repeats, seed)
