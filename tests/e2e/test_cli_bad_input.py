@@ -219,6 +219,7 @@ def test_hydra_multirun_habits_point_to_mapush_sweep(train_bad, args):
     assert "-m" not in line.partition("`mapush sweep")[2] and "--multirun" not in line.partition("`mapush sweep")[2]
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_a_smoke_multirun_points_to_a_small_sweep_that_plans_only_that(train_bad, cli):
     line = assert_bad_input(train_bad("seed=0,1"), "not a sweep", "valid:", "`mapush sweep")
     hint = line.partition("`mapush sweep ")[2].partition("`")[0].split()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 
+import pytest
 import torch
 
 
@@ -23,6 +24,7 @@ def test_a_cut_run_exports_its_last_checkpoint_to_a_new_dir_and_stays_cut(cli, s
     assert torch.allclose(exported(obs), shipped(obs))  # the same actor as the finished run exported
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_export_refuses_an_existing_dir_and_a_foreign_checkpoint_in_one_line(cli, smoke_run, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(smoke_run, run)

@@ -72,6 +72,7 @@ def _wait_for_line(proc: subprocess.Popen, timeout: float) -> str:
     raise AssertionError(f"no run dir printed: {proc.stderr.read() if proc.poll() is not None else 'timeout'}")
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_a_run_being_trained_is_not_trained_or_evaluated_beside_it(run_copy, run_cli):
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     first = subprocess.Popen(
@@ -116,6 +117,7 @@ def test_a_shipped_checkpoint_altered_on_disk_is_refused(tmp_path, run_cli):
     assert_bad_input(proc, str(checkpoint), "sha256")
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_a_killed_learning_bench_takes_its_training_along(tmp_path):
     """`mapush bench --learn`'s training child (the real `mapush train`) ends when the benchmark is killed."""
     script = (

@@ -44,6 +44,7 @@ def resumed_tb(run_cli, tmp_path_factory):
     return run_dir, before, first.stderr + second.stderr
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_tensorboard_holds_every_scalar_of_both_parts_as_the_mcap_log(resumed_tb):
     run_dir, _, _ = resumed_tb
     assert len(list((run_dir / "tensorboard").glob("events.out.tfevents.*"))) == 2  # one per process
@@ -73,6 +74,7 @@ def test_the_csv_export_has_a_row_per_iteration_of_the_whole_resumed_run(resumed
                 assert row[tag] == ""
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_the_csv_export_refuses_an_existing_output_and_keeps_it(resumed_tb, cli, tmp_path):
     run_dir, _, _ = resumed_tb
     existing = tmp_path / "metrics.csv"

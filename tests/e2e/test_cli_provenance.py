@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import yaml
 
 from mapush.provenance import files_hash, package_version
@@ -18,6 +19,7 @@ def test_meta_json_names_the_version_and_package_hash_and_the_config_does_not(sm
     assert "mapush_version" not in yaml.safe_load((smoke_run / "config.yaml").read_text())
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine
 def test_eval_records_the_code_and_warns_once_when_the_run_was_made_by_other_code(cli, run_copy):
     meta_path = run_copy / "meta.json"
     meta = json.loads(meta_path.read_text()) | {"package_hash": files_hash()}  # the code as it is now, not cached
