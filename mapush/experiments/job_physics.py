@@ -10,6 +10,7 @@ config its stages' records hold (`stage.yaml`), so no table composes a config or
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -26,6 +27,16 @@ MASS, MASS_RANGE = "task.object.mass", "task.object.mass_range"
 PUSHING_STAGE = "mid"
 """The stage of a method (`conf/method/`) that pushes the object: its commands are what a robot's capacity is
 taken at."""
+
+
+def _parse(text: str):
+    """One override as Hydra's grammar reads it (the parser built once: the team table asks for every job)."""
+    return _parser().parse_override(text)
+
+
+@functools.cache
+def _parser() -> OverridesParser:
+    return OverridesParser.create()
 
 
 @dataclass(frozen=True)
@@ -95,7 +106,7 @@ def evaluated_mass(physics: ObjectPhysics, overrides: list[str]) -> float | None
     is drawn per episode (a range the overrides leave on or set) or not known (its `mass` removed or null: the
     parts' own, which `physics` does not hold apart)."""
     ranged, mass = physics.mass_range_kg is not None, physics.mass_kg
-    for override in map(OverridesParser.create().parse_override, overrides):
+    for override in map(_parse, overrides):
         cleared = override.is_delete() or override.value() is None
         if override.key_or_group == MASS_RANGE:
             ranged = not cleared
@@ -131,14 +142,14 @@ def trained_mass(result) -> float | None:
     physics = result.object_physics()
     if physics is not None:
         return None if physics.mass_range_kg is not None else physics.mass_kg
-    given = {o.key_or_group: o for o in map(OverridesParser.create().parse_override, map(str, result.overrides))}
+    given = {o.key_or_group: o for o in map(_parse, map(str, result.overrides))}
     fixed = MASS_RANGE in given and given[MASS_RANGE].value() is None and MASS in given
     return float(given[MASS].value()) if fixed and given[MASS].value() is not None else None
 
 
 def sets_mass(override: str) -> bool:
     """Whether a stage override sets the object's mass (fixed or drawn)."""
-    return OverridesParser.create().parse_override(override).key_or_group in (MASS, MASS_RANGE)
+    return _parse(override).key_or_group in (MASS, MASS_RANGE)
 
 
 def besides_mass(overrides: list[str]) -> tuple[str, ...]:

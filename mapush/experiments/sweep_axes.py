@@ -7,6 +7,7 @@ stages. `sweep.py` launches them, or (`--dry-run`) prints what they would train.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 
@@ -17,6 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.config import CONF_DIR, compose_config, group_file, group_options, overrides_name, search_dirs, to_plain
 from mapush.errors import BadInput, first_line
 from mapush.experiments import plan_memo, stages
+from mapush.experiments.job_records import CurveRule
 from mapush.experiments.results import every_stage_override
 from mapush.experiments.stage_plan import PlannedStage, budget_of, planned_stages, stages_with_overrides
 
@@ -178,7 +180,7 @@ def _check_jobs(overrides: list[str]) -> None:
 
 CURVE_SPEC_KEYS = ("eval", "every_env_steps", "reach", "stages")
 """What a budget's `curve:` may say; the rest of a result's curve (`job_records.Curve`) is drawn."""
-RULE_KEYS = ("tail", "max_gain")
+RULE_KEYS = tuple(f.name for f in dataclasses.fields(CurveRule))
 """What an experiment's `budget_rule:` says (`job_records.CurveRule`)."""
 
 
