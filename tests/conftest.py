@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import copy
+import fcntl
 import os
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -80,15 +82,36 @@ def cli(tmp_path):
     return run
 
 
+def made_once(tmp_path_factory, name: str, make: Callable[[Path], None]) -> Path:
+    """The folder `name` that `make(folder)` filled, made once for the whole test session: the test processes
+    that xdist starts share their base temp dir's parent, and the first to ask makes it under a file lock while
+    the others wait. Treat what it holds as read-only."""
+    shared = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        shared = shared.parent
+    folder, done = shared / name, shared / f"{name}.done"
+    with open(shared / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            shutil.rmtree(folder, ignore_errors=True)  # a try that failed before
+            folder.mkdir()
+            make(folder)
+            done.touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
 def smoke_run(tmp_path_factory) -> Path:
     """A 2-iteration `mapush train debug=smoke` run dir, made once through the CLI. Treat it as read-only."""
-    root = tmp_path_factory.mktemp("smoke_runs")
-    proc = _run_cli(["train", "debug=smoke", f"train.run_root={root}"], cwd=root)
-    assert proc.returncode == 0, proc.stderr
-    run_dir = Path(proc.stdout.strip().splitlines()[-1])
-    assert run_dir.is_dir(), proc.stdout
-    return run_dir
+
+    def make(root: Path) -> None:
+        proc = _run_cli(["train", "debug=smoke", f"train.run_root={root}"], cwd=root)
+        assert proc.returncode == 0, proc.stderr
+        run_dir = Path(proc.stdout.strip().splitlines()[-1])
+        assert run_dir.is_dir(), proc.stdout
+        (root / "run_dir.txt").write_text(str(run_dir))
+
+    return Path((made_once(tmp_path_factory, "smoke_run", make) / "run_dir.txt").read_text())
 
 
 @pytest.fixture

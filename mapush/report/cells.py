@@ -163,7 +163,8 @@ def events_finding(arms: dict[str, list[JobResult]], eval_name: str, what: str) 
             numbers.update({f"{label} {kind}": share for kind, share in shares.items()})
     if not parts:
         return []
-    return [Finding(f"{what}: episodes with (mean over seeds): {'; '.join(parts)}", numbers=numbers)]
+    text = f"{what}: episodes with (mean over seeds): {'; '.join(parts)}"
+    return [Finding(text, numbers=numbers, key="events", about=what)]
 
 
 def named_shares(shares: dict[str, float]) -> str:

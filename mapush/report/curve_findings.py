@@ -82,10 +82,10 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     if len(at_zero) == len(curves):
         checkpoints = sum(len(c.points) for c in curves)
         text = f"{label}: did not learn: 0 % success at every one of {checkpoints} evaluated checkpoints"
-        return Finding(text, False, {"checkpoints": checkpoints})
+        return Finding(text, False, {"checkpoints": checkpoints}, key="budget", about=label)
     gains = [g for g in (tail_gain(c.points, float(rule.tail)) for c in curves) if g is not None]
     if not gains:
-        return Finding(f"{label}: too few checkpoints to judge the budget")
+        return Finding(f"{label}: too few checkpoints to judge the budget", key="budget", about=label)
     gain, max_gain = clean_rate(np.mean(gains)), clean_rate(rule.max_gain)  # compared as printed
     mean, std, limit = 100 * gain, 100 * clean_rate(np.std(gains)), 100 * max_gain
     numbers = {"tail_gain_points": mean, "tail_gain_std": std, "limit_points": limit}
@@ -96,6 +96,7 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
     else:  # lost as much as the rule lets a flat curve gain: the budget runs past the curve's peak
         x, rates, _ = mean_curve([c.points for c in curves])
         peak = int(np.argmax(rates))
+        numbers |= {"peak_sr": 100 * float(rates[peak]), "peak_env_steps": float(x[peak])}
         verdict = (
             f"flattened, then falling: the mean curve peaked at {100 * rates[peak]:.1f} % "
             f"after {x[peak] / 1e6:.1f}M env-steps"
@@ -109,7 +110,7 @@ def budget_verdict(label: str, results: list[JobResult], stage: str | None = Non
         named = ", ".join(f"{r.seed} ({len(c.points)} checkpoints)" for r, c in at_zero)
         text += f"; did not learn (0 % at every checkpoint): {'seeds' if len(at_zero) > 1 else 'seed'} {named}"
         numbers["seeds_not_learned"] = len(at_zero)
-    return Finding(text, gain < max_gain, numbers)
+    return Finding(text, gain < max_gain, numbers, key="budget", about=label)
 
 
 def budget_findings(lines: dict[str, list[JobResult]], stages: list[str] = ()) -> list[Finding]:
@@ -128,10 +129,11 @@ def stage_verdicts(label: str, results: list[JobResult], stages: list[str]) -> l
         if not trained:
             continue
         name = f"{label}, {stage} level"
-        verdict = budget_verdict(name, trained, stage) or Finding(f"{name}: no curve")
+        verdict = budget_verdict(name, trained, stage) or Finding(f"{name}: no curve", key="budget", about=name)
         lacking = sum(curve_of(r, stage) is None for r in trained)
         if lacking:
             why = f" ({lacking} of {len(trained)} jobs have no curve of it: their runs were not here to draw it)"
-            verdict = dataclasses.replace(verdict, text=verdict.text + why)
+            numbers = {**verdict.numbers, "jobs_without_curve": lacking}
+            verdict = dataclasses.replace(verdict, text=verdict.text + why, numbers=numbers)
         verdicts.append(verdict)
     return verdicts

@@ -160,7 +160,7 @@ def judge(claim: Claim, cells: dict[tuple[str, str], Cell], decl: dict) -> Findi
         if cells[ref.row, ref.column].values:
             numbers[side] = cells[ref.row, ref.column].mean
     holds = bool(OPS[claim.op][0](numbers["left"], numbers["right"])) if len(numbers) == 2 else None
-    finding = Finding("", holds, numbers, claim=claim.text, op=claim.op, names=names)
+    finding = Finding("", holds, numbers, claim=claim.text, op=claim.op, names=names, key=claim.text)
     return dataclasses.replace(finding, text=claim_sentence(finding))
 
 

@@ -106,6 +106,10 @@ class Finding:
     claims nothing, or a comparison within the seeds' spread) and the `numbers` it rests on, by name (the sidecar
     JSON keeps all three). The main table compares means: its claims ignore the spread.
 
+    `key` names what it judges or reads, the same in every table and run ("ours_vs_paper", "budget"), and
+    `about` where (an object, a robot count, an evaluation, a curve's label): a reader or a test finds a finding
+    by the two (`Table.finding`), never by its words.
+
     A declared table's claim (`declared.py`) says more: the `claim` it judges, its `op` (">", "<", ">=", "<=")
     and what each side of `numbers` is (`names`: "left", "right"; "" for a plain number); a side missing from
     `numbers` was not measured. The sidecar keeps them for such a finding only."""
@@ -116,6 +120,8 @@ class Finding:
     claim: str = ""
     op: str = ""
     names: dict[str, str] = field(default_factory=dict)
+    key: str = ""
+    about: str = ""
 
     def __str__(self) -> str:
         return self.text
@@ -123,7 +129,8 @@ class Finding:
     def record(self) -> dict:
         """The finding in the sidecar JSON."""
         declared = {"claim": self.claim, "op": self.op, "names": self.names} if self.claim else {}
-        return {"text": self.text, "holds": self.holds, "numbers": self.numbers, **declared}
+        return {"key": self.key, "about": self.about, "text": self.text, "holds": self.holds,
+                "numbers": self.numbers, **declared}  # fmt: skip
 
 
 @dataclass
@@ -148,6 +155,23 @@ class Table:
     @property
     def heading(self) -> str:
         return f"{self.title}: {self.reading}" if self.reading else self.title
+
+    def finding(self, key: str, about: str = "") -> Finding:
+        """The one finding of `key` about `about` (`pick`)."""
+        return pick(self.findings, key, about)
+
+
+def pick(findings: list[Finding], key: str, about: str = "") -> Finding:
+    """The one finding of `key` about `about` among `findings`; a KeyError naming those there are when not one."""
+    found = [f for f in findings if f.key == key and f.about == about]
+    if len(found) != 1:
+        raise KeyError(f"{len(found)} findings {key!r} about {about!r}; there are: {keys(findings)}")
+    return found[0]
+
+
+def keys(findings: list[Finding]) -> list[tuple[str, str]]:
+    """Each finding's (key, about), in order."""
+    return [(f.key, f.about) for f in findings]
 
 
 def counted(n: int, noun: str) -> str:

@@ -146,21 +146,22 @@ def judge_claims(rows: list, ocb: list[JobResult]) -> list[Finding]:
         return with_ocb.mean > without.mean, f"{with_ocb.mean:.1f} vs {without.mean:.1f} % at 20 s"
 
     bars = LADDER["claims"]
-    claims = {
-        f"{sa} under {bars['sa_below']:g} % S.R. on every object": every_object(
-            sa, lambda v: v < bars["sa_below"], f" (bar {bars['sa_below']:g} %)"),
-        f"{ours} at least {bars['ours_at_least']:g} % S.R. on every object": every_object(
-            ours, lambda v: v >= bars["ours_at_least"], f" (bar {bars['ours_at_least']:g} %)"),
-        f"{ours} (a team) above {sa} (one robot) on every object": team_above_one,
-        "two robots well above one on the cylinder (by more than the seeds' spread)": two_above_one,
-        "three robots best on the cylinder (of 1-4)": three_best,
-        "four robots below three on the cylinder": four_below_three,
-        "OCB's gain: the mid level with OCB above it without (20 s pushes)": ocb_gain,
+    claims = {  # each claim's key: its words and its judge
+        "sa_below": (f"{sa} under {bars['sa_below']:g} % S.R. on every object", every_object(
+            sa, lambda v: v < bars["sa_below"], f" (bar {bars['sa_below']:g} %)")),
+        "ours_at_least": (f"{ours} at least {bars['ours_at_least']:g} % S.R. on every object", every_object(
+            ours, lambda v: v >= bars["ours_at_least"], f" (bar {bars['ours_at_least']:g} %)")),
+        "team_above_one": (f"{ours} (a team) above {sa} (one robot) on every object", team_above_one),
+        "two_above_one": ("two robots well above one on the cylinder (by more than the seeds' spread)",
+                          two_above_one),
+        "three_best": ("three robots best on the cylinder (of 1-4)", three_best),
+        "four_below_three": ("four robots below three on the cylinder", four_below_three),
+        "ocb_gain": ("OCB's gain: the mid level with OCB above it without (20 s pushes)", ocb_gain),
     }  # fmt: skip
-    return [_ladder_finding(claim, judge) for claim, judge in claims.items()]
+    return [_ladder_finding(key, claim, judge) for key, (claim, judge) in claims.items()]
 
 
-def _ladder_finding(claim: str, judge: Callable[[int], Verdict | str]) -> Finding:
+def _ladder_finding(key: str, claim: str, judge: Callable[[int], Verdict | str]) -> Finding:
     """One claim over the rungs: the first rung where it stops holding (or that it holds on every rung judged)."""
     verdicts = [judge(k) for k in range(len(RUNGS))]
     judged = [(k, v) for k, v in enumerate(verdicts) if isinstance(v, tuple)]
@@ -179,7 +180,7 @@ def _ladder_finding(claim: str, judge: Callable[[int], Verdict | str]) -> Findin
         holds, numbers = False, {"first_failing_rung": float(k)}
     if unmeasured:
         text += f"; not measured at {', '.join(unmeasured)}"
-    return Finding(text, holds, numbers)
+    return Finding(text, holds, {**numbers, "unmeasured_rungs": float(len(unmeasured))}, key=key)
 
 
 def _fall_lines(falls: list[tuple[list[str], list[Cell]]]) -> list[Finding]:
@@ -188,5 +189,6 @@ def _fall_lines(falls: list[tuple[list[str], list[Cell]]]) -> list[Finding]:
     for labels, cells in falls:
         if any(c.values for c in cells):
             shares = ", ".join(f"{r.label} {c.text()}" for r, c in zip(RUNGS, cells, strict=True))
-            lines.append(Finding(f"Episodes with a fall (%), {' / '.join(labels)}: {shares}"))
+            row, numbers = " / ".join(labels), {r.label: c.mean for r, c in zip(RUNGS, cells, strict=True) if c.values}
+            lines.append(Finding(f"Episodes with a fall (%), {row}: {shares}", numbers=numbers, key="falls", about=row))
     return lines

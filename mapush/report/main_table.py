@@ -141,18 +141,20 @@ def _baselines(mine: list[JobResult], paper: dict, task: str, sr: dict, mean: fl
             f"{label}: baselines below Ours: {', '.join(below) or 'none'}; at or above: {', '.join(beaten) or 'none'}"
         )
         numbers = {paper["labels"][m]: float(np.mean(v)) for m, v in sr.items() if v and m not in yours}
-        lines.append(Finding(text, not beaten, numbers))  # the paper's: Ours above every baseline
+        lines.append(Finding(text, not beaten, numbers, key="ours_above_baselines", about=label))  # the paper's
     if yours:
         text = "; ".join(f"{paper['labels'][m]} {np.mean(v):.1f} %" for m, v in yours.items())
         numbers = {paper["labels"][m]: float(np.mean(v)) for m, v in yours.items()}
-        lines.append(Finding(f"{label}: methods of yours, against Ours' {mean:.1f} %: {text}", None, numbers))
+        text = f"{label}: methods of yours, against Ours' {mean:.1f} %: {text}"
+        lines.append(Finding(text, None, numbers, key="yours_beside_ours", about=label))
     if sr.get("sa"):
         sa = float(np.mean(sr["sa"]))
         verdict = "below" if sa < mean else "at or above"
         physics = known_physics(matching(mine, method="sa", task=task))  # one robot on the object, as it trained
         need, forces = team_needed(physics) if physics else ("drag not recorded", {})
         text = f"{label}: SA {sa:.1f} % is {verdict} Ours; the object's {need}"
-        lines.append(Finding(text, sa < mean, {"sa_sr": sa, "ours_sr": mean, **forces}))
+        numbers = {"sa_sr": sa, "ours_sr": mean, **forces}
+        lines.append(Finding(text, sa < mean, numbers, key="sa_below_ours", about=label))
     return lines
 
 
@@ -180,7 +182,9 @@ def _learned_against_scripted(
                 text, numbers["env_steps_to_pusher"] = text + more, needed
             on, reached = _trained_on(own, matching(longer, method=method, task=task), bar)
             text, numbers = text + on, {**numbers, **reached}
-        lines.append(Finding(text, learned >= bar, numbers))
+        lines.append(
+            Finding(text, learned >= bar, numbers, key=f"{method}_vs_pusher", about=paper["task_labels"][task])
+        )
     return lines
 
 
@@ -196,12 +200,14 @@ def _ours_otherwise(mine: list[JobResult], paper: dict, task: str, mean: float) 
         if eval_name == "path_only":
             verdict = "adds to" if gap > 0 else "does not beat"
             text = f"{label}: the learned high level {verdict} path following ({gap:+.1f} points of S.R.)"
-            lines.append(Finding(text, gap > 0, {"gap_points": gap}))
+            lines.append(Finding(text, gap > 0, {"gap_points": gap}, key="high_level_vs_path", about=label))
         else:
             verdict = "within" if gap <= LEGGED_GAP else "not within"
             change = f"loses {gap:.1f}" if gap >= 0 else f"gains {-gap:.1f}"
             line = f"{label}: on {what} Ours {change} points of S.R., {verdict} {LEGGED_GAP:g} points"
-            lines.append(Finding(line + _ended_by(mine, task, eval_name), gap <= LEGGED_GAP, {"gap_points": gap}))
+            ended, shares = _ended_by(mine, task, eval_name)
+            text, numbers = line + ended, {"gap_points": gap, **{f"ended_by {k}": v for k, v in shares.items()}}
+            lines.append(Finding(text, gap <= LEGGED_GAP, numbers, key="legged_gap", about=label))
     return lines
 
 
@@ -218,7 +224,7 @@ def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: floa
         + ")"
     )
     numbers = {"ours_sr": mean, "paper_sr": paper_sr, "ours_ct": ct, "paper_ct": paper_ct}
-    lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers)]
+    lines = [Finding(text, mean >= paper_sr and ct <= paper_ct, numbers, key="ours_vs_paper", about=label)]
     timeouts = {
         r.evals["main"].timeout_s if "main" in r.evals else None for r in matching(mine, method="ours", task=task)
     }
@@ -229,7 +235,8 @@ def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: floa
             f"{label}: Ours' successes take {mine_t * timeout:.0f} s on average, the paper's {paper_t * timeout:.0f} s "
             f"(from S.R. and C.T., a failure counting as the {timeout:.0f} s timeout)"
         )
-        lines.append(Finding(text, numbers={"ours_success_s": mine_t * timeout, "paper_success_s": paper_t * timeout}))
+        numbers = {"ours_success_s": mine_t * timeout, "paper_success_s": paper_t * timeout}
+        lines.append(Finding(text, numbers=numbers, key="success_time", about=label))
     return lines
 
 
@@ -273,14 +280,15 @@ def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: flo
             f"; the one before: {100 * rates[above[0] - 1]:.1f} % at {x[above[0] - 1] / 1e6:.1f}M" if above[0] else ""
         )
         reached = f"first reached that at the checkpoint of {hit / 1e6:.1f}M env-steps ({end}{before})"
-    seeds = counted(len(per_seed), "seed")
+    seeds, marked = counted(len(per_seed), "seed"), {}
     if any(curve_findings.curve_made_otherwise(r) for r in longer):  # its cells are marked so in their own table
-        seeds += f", {OTHERWISE} an earlier recipe"
+        seeds, marked = seeds + f", {OTHERWISE} an earlier recipe", {"longer_made_otherwise": 1.0}
     text = f"; trained on to {x[-1] / 1e6:.1f}M env-steps (budget {variants}, {seeds}) it {reached}"
     return text, {
         "env_steps_longer": float(x[-1]),
         "env_steps_to_pusher_longer": hit,
         "sr_longer": 100 * float(rates[-1]),
+        **marked,
     }
 
 
@@ -299,15 +307,19 @@ def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Find
                 f"{paper['task_labels'][task]}: on legged Go1s {paper['labels'][method]} reaches {mean:.1f} % of "
                 f"S.R., {verdict} Ours' {ours_mean:.1f} %"
             )
-            lines.append(Finding(text, mean < ours_mean, {"baseline_sr": mean, "ours_sr": ours_mean}))
+            numbers = {"baseline_sr": mean, "ours_sr": ours_mean}
+            about = paper["task_labels"][task]
+            lines.append(Finding(text, mean < ours_mean, numbers, key=f"legged_{method}_below_ours", about=about))
     return lines
 
 
-def _ended_by(results: list[JobResult], task: str, eval_name: str) -> str:
+def _ended_by(results: list[JobResult], task: str, eval_name: str) -> tuple[str, dict[str, float]]:
     """The end of a finding line: which exceptions ended Ours' episodes of the evaluation, where its records name
-    them."""
+    them, and their shares (%) by kind."""
     shares, seeds = exception_shares(matching(results, method="ours", task=task), [eval_name])
-    return f"; episodes ended by {named_shares(shares)} (mean over {counted(seeds, 'seed')})" if shares else ""
+    return (
+        f"; episodes ended by {named_shares(shares)} (mean over {counted(seeds, 'seed')})" if shares else ""
+    ), shares
 
 
 def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:
@@ -328,4 +340,4 @@ def _exceptions_finding(mine: list[JobResult], paper: dict, task: str) -> list[F
     if not parts:
         return []
     text = f"{paper['task_labels'][task]}: episodes ended by an exception (mean over seeds): {'; '.join(parts)}"
-    return [Finding(text, numbers=numbers)]
+    return [Finding(text, numbers=numbers, key="ended_by", about=paper["task_labels"][task])]

@@ -58,10 +58,10 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
     (_, with_ocb), (_, without) = rows
     for k, name in enumerate(paper["evals"]):
         checks = (
-            (2 * k, "success_rate", 1, "gain in S.R.", "points"),
-            (2 * k + 1, "completion_time_s", -1, "saving in C.T.", "s"),
+            (2 * k, "success_rate", 1, "gain in S.R.", "points", "ocb_sr_gain"),
+            (2 * k + 1, "completion_time_s", -1, "saving in C.T.", "s", "ocb_ct_saving"),
         )
-        for column, metric, sign, what, unit in checks:
+        for column, metric, sign, what, unit, key in checks:
             ours, other = with_ocb[column], without[column]
             if len(ours.values) < 2 or len(other.values) < 2:
                 continue
@@ -74,10 +74,10 @@ def _ocb_findings(paper: dict, columns: list[str], rows: list, arms: dict[str, l
                 f"{paper['eval_labels'][name]}: the paper's OCB {what} ({p_ours:g} vs {p_other:g}) {verdict} here: "
                 f"{gain:+.1f} {unit} (the seeds' spread {spread:.1f}: both arms' stds, in quadrature)"
             )
-            findings.append(Finding(text, holds, {"gain": gain, "spread": spread, "paper_with": p_ours,
-                                                  "paper_without": p_other}))  # fmt: skip
+            numbers = {"gain": gain, "spread": spread, "paper_with": p_ours, "paper_without": p_other}
+            findings.append(Finding(text, holds, numbers, key=key, about=paper["eval_labels"][name]))
     if len(columns) > 2 * len(paper["evals"]):  # the env-steps to the curve's success rate, from the curves
         reach = "; ".join(f"{labels[0]} {cells[-1].text()}" for labels, cells in rows)
-        findings.append(Finding(f"{columns[-1]} (the paper measured none): {reach}"))
+        findings.append(Finding(f"{columns[-1]} (the paper measured none): {reach}", key="steps_to_reach"))
     findings += curve_findings.budget_findings(arms)
     return findings

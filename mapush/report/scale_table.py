@@ -43,7 +43,8 @@ def scale_table(results: list[JobResult], variant: str) -> Table:
                 if np.isclose(mean, top)]  # fmt: skip
         among = "" if len(measured) == len(rows) else f" of those finished ({', '.join(m[2] for m in measured)})"
         text = f"Best robot count{among} here: {' and '.join(best)}" + (", tied" if len(best) > 1 else "")
-        findings.append(Finding(text, numbers={f"{m[2]}_robots_sr": float(m[0]) for m in measured}))
+        numbers = {f"{m[2]}_robots_sr": float(m[0]) for m in measured}
+        findings.append(Finding(text, numbers=numbers, key="best_count"))
     findings += _scale_paper_findings(rows, marked) + _reference_mid_finding(rows)
     lines = {counted(n, "robot"): matching(mine, num_agents=n) for n in counts}
     findings += curve_findings.budget_findings(lines, curve_findings.drawn_stages(mine))
@@ -71,8 +72,8 @@ def _mark(n: int, marked: set[int]) -> str:
 def _scale_paper_findings(rows: list, marked: set[int]) -> list[Finding]:
     """The paper's four readings of its scalability figure (paper IV-B-3; it gives no numbers), each judged on the
     means over seeds of the whole hierarchy (S.R., and C.T. where the paper says "both metrics") and of the mid
-    level alone (S.R.), among the figure's robot counts that finished; a reading that rests on rows marked as
-    made otherwise (`marked`) says which."""
+    level alone (S.R.), among the figure's robot counts that finished: one finding per reading and level, about
+    the level; one that rests on rows marked as made otherwise (`marked`) says which."""
     figure = PAPER["scale"]["robots"]
 
     def means(column: int) -> dict[int, float]:
@@ -113,27 +114,28 @@ def _scale_paper_findings(rows: list, marked: set[int]) -> list[Finding]:
             return None
         return sr[4] < sr[3], f"{sr[4] - sr[3]:+.1f} points from 3 robots to 4"
 
-    claims = {  # each judge, and the robot counts it reads (None: every one)
-        "one robot struggles": (one_struggles, None),
-        "two robots improve S.R. substantially on one": (two_improve, {1, 2}),
-        "three robots are best on both metrics": (three_best, None),
-        "four robots do slightly worse than three": (four_worse, {3, 4}),
+    claims = {  # each claim's key: its words, its judge, and the robot counts it reads (None: every one)
+        "one_struggles": ("one robot struggles", one_struggles, None),
+        "two_improve": ("two robots improve S.R. substantially on one", two_improve, {1, 2}),
+        "three_best": ("three robots are best on both metrics", three_best, None),
+        "four_worse": ("four robots do slightly worse than three", four_worse, {3, 4}),
     }
     judged = {0: ("whole hierarchy", means(0)), 2: ("mid level alone", means(2))}
     lines = []
-    for claim, (judge, reads) in claims.items():
-        parts, verdicts = [], []
-        for column, (what, sr) in judged.items():
+    for key, (claim, judge, reads) in claims.items():
+        for column, (what, sr) in judged.items():  # one finding per level judged
             verdict = judge(sr, column)
-            if verdict is not None:
-                parts.append(f"{what}: {'holds' if verdict[0] else 'does not hold'} ({verdict[1]})")
-                verdicts.append(bool(verdict[0]))
-        if parts:
-            text = f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {'; '.join(parts)}"
-            resting = sorted(marked & (judged[0][1].keys() | judged[2][1].keys()) & (reads or set(figure)))
+            if verdict is None:
+                continue
+            text = f"The paper ({', '.join(map(str, figure))} robots): {claim}. Here, {what}: "
+            text += f"{'holds' if verdict[0] else 'does not hold'} ({verdict[1]})"
+            read = {n: v for n, v in sr.items() if reads is None or n in reads}
+            numbers = {f"{n}_robots_sr": v for n, v in read.items()}
+            resting = sorted(marked & read.keys())
             if resting:
                 text += f" (rows {', '.join(map(str, resting))} marked {OTHERWISE}: an earlier recipe's)"
-            lines.append(Finding(text, all(verdicts)))  # holds where it holds for every level judged
+                numbers["rows_made_otherwise"] = float(len(resting))
+            lines.append(Finding(text, bool(verdict[0]), numbers, key=key, about=what))
     return lines
 
 
@@ -151,4 +153,5 @@ def _reference_mid_finding(rows: list) -> list[Finding]:
         f"the original's best stored cylinder mid level reached {bar:g} %: {verdict}"
     )
     holds = True if mean >= bar else (None if bar - mean <= std else False)  # None: within the spread, as the OCB's
-    return [Finding(text, holds, {"mid_sr": mean, "mid_sr_std": std, "original_sr": bar})]
+    numbers = {"mid_sr": mean, "mid_sr_std": std, "original_sr": bar}
+    return [Finding(text, holds, numbers, key="reference_mid", about=counted(int(ref["robots"]), "robot"))]

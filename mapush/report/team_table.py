@@ -129,8 +129,8 @@ def _findings(rows: list, masses: dict[str, float | None]) -> list[Finding]:
             if enough:
                 fewest[f"{at.replace(' ', '_')}_robots"] = enough[0][0]
         if parts:
-            found.append(Finding(f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts),
-                                 numbers=fewest))  # fmt: skip
+            text = f"{task}: the fewest robots reaching 50 % S.R. by mass: " + "; ".join(parts)
+            found.append(Finding(text, numbers=fewest, key="fewest_robots", about=task))
     return found
 
 
@@ -148,8 +148,8 @@ def _exception_findings(records: dict[tuple[str, int], list[tuple[JobResult, str
         if parts:
             text = "; ".join(f"{robots}: {named_shares(shares) or 'none'}" for robots, shares in parts)
             numbers = {f"{robots} {kind}": share for robots, shares in parts for kind, share in shares.items()}
-            found.append(Finding(f"{task}: episodes ended by an exception (mean over masses and seeds): {text}",
-                                 numbers=numbers))  # fmt: skip
+            text = f"{task}: episodes ended by an exception (mean over masses and seeds): {text}"
+            found.append(Finding(text, numbers=numbers, key="ended_by", about=task))
     return found
 
 
@@ -189,18 +189,23 @@ def _one_mass_findings(
             f"env-steps; trained at its own {own:g} kg ({by}, {counted(len(references), 'seed')}), "
             f"{mean:.1f} \u00b1 {std:.1f} % there at {at_steps / 1e6:.1f}M"
         )
-        found.append(_weighed(text, best.mean, mean, std + best.std, " against the better of them"))
+        about = f"{task} / {counted(int(n), 'robot')}"
+        found.append(
+            _weighed(text, best.mean, mean, std + best.std, ("own_mass", about), " against the better of them")
+        )
     return found
 
 
-def _weighed(text: str, ranged: float, alone: float, spread: float, against: str = "") -> Finding:
-    """A design check's finding: `text`, then what training over the range costs (or gains) against the one-mass
-    policy, in S.R. points, and whether that is within the seeds' `spread`."""
+def _weighed(
+    text: str, ranged: float, alone: float, spread: float, where: tuple[str, str], against: str = ""
+) -> Finding:
+    """A design check's finding (its key and what it is about: `where`): `text`, then what training over the range
+    costs (or gains) against the one-mass policy, in S.R. points, and whether that is within the seeds' `spread`."""
     gap = alone - ranged
     verdict = "within the seeds' spread" if gap <= spread else f"beyond the seeds' spread ({spread:.1f})"
     text += f": the range {'costs' if gap > 0 else 'gains'} {abs(gap):.1f} points{against}, {verdict}"
     numbers = {"range_points": ranged, "one_mass_points": alone, "gap_points": gap, "spread_points": spread}
-    return Finding(text, gap <= spread, numbers)
+    return Finding(text, gap <= spread, numbers, key=where[0], about=where[1])
 
 
 def _one_mass_references(results: list[JobResult], variant: str, task: str, robots: int) -> list[JobResult]:
@@ -250,5 +255,6 @@ def _fixed_mass_findings(
                 f"{ranged.mean:.1f} \u00b1 {ranged.std:.1f} %; trained at {_kg(name, mass)} alone "
                 f"({counted(len(one.values), 'seed')}), {one.mean:.1f} \u00b1 {one.std:.1f} %"
             )
-            found.append(_weighed(text, ranged.mean, one.mean, one.std + ranged.std))
+            about = f"{task} / {counted(int(n), 'robot')} at {_kg(name, mass)}"
+            found.append(_weighed(text, ranged.mean, one.mean, one.std + ranged.std, ("mass_alone", about)))
     return found

@@ -31,6 +31,9 @@ def tensorboard_scalars(run_dir) -> dict[str, dict[int, float]]:
     return {tag: {e.step: e.value for e in events.Scalars(tag)} for tag in events.Tags()["scalars"]}
 
 
+pytestmark = pytest.mark.xdist_group("test_cli_metrics_out")  # one test process makes `resumed_tb` for all
+
+
 @pytest.fixture(scope="module")
 def resumed_tb(run_cli, tmp_path_factory):
     """A smoke run of 3 iterations with TensorBoard on, then resumed to 6, progress lines on; (run dir, stderrs)."""

@@ -17,6 +17,9 @@ def iterations_logged(path) -> set[int]:
         return {json.loads(m.data)["iteration"] for _, _, m in make_reader(f).iter_messages()}
 
 
+pytestmark = pytest.mark.xdist_group("test_cli_resume")  # one test process makes `resumed` for all
+
+
 @pytest.fixture(scope="module")
 def resumed(run_cli, smoke_run, tmp_path_factory):
     """A copy of the 2-iteration smoke run, continued to 4 iterations."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from mapush.experiments.results import JobResult
+from mapush.report.formats import keys
 from mapush.report.ladder_table import RUNGS, ladder_table
 
 OBJECTS = ("cuboid", "tblock", "cylinder")
@@ -43,10 +44,6 @@ def results(ours_cylinder_strict: float = 0.7) -> list[JobResult]:
     return made
 
 
-def finding(table, start: str):
-    return next(f for f in table.findings if f.text.startswith(f"The paper: {start}"))
-
-
 def test_every_row_and_rung_is_filled_from_its_jobs_evaluation():
     table = ladder_table(results(), "quick")
     assert table.columns == [r.label for r in RUNGS]
@@ -58,17 +55,18 @@ def test_every_row_and_rung_is_filled_from_its_jobs_evaluation():
 
 def test_a_claim_names_the_first_rung_where_it_stops_holding():
     table = ladder_table(results(ours_cylinder_strict=0.5), "quick")
-    ours = finding(table, "Ours at least 60 %")
-    assert ours.holds is False and ours.numbers["first_failing_rung"] == 3.0
-    assert "First stops holding at 3: strict" in ours.text and "Cylinder 50.0 %" in ours.text
+    ours = table.finding("ours_at_least")
+    assert ours.holds is False and ours.numbers["first_failing_rung"] == 3.0  # 3: strict, the cylinder at 50 %
 
 
 def test_claims_that_hold_on_every_rung_say_so():
     table = ladder_table(results(), "quick")
-    for start in ("SA under 25 %", "Ours at least 60 %", "Ours (a team) above SA", "two robots well above one",
-                  "three robots best", "four robots below three", "OCB's gain"):  # fmt: skip
-        found = finding(table, start)
-        assert found.holds is True and "Holds on every rung measured" in found.text, found.text
+    claims = ["sa_below", "ours_at_least", "team_above_one", "two_above_one", "three_best", "four_below_three",
+              "ocb_gain"]  # fmt: skip
+    assert [key for key, _ in keys(table.findings) if key != "falls"] == claims
+    for claim in claims:
+        found = table.finding(claim)
+        assert found.holds is True and found.numbers == {"unmeasured_rungs": 0.0}, found.text
 
 
 def test_a_rung_without_evaluations_is_named_not_measured_and_listed_missing():
@@ -76,17 +74,16 @@ def test_a_rung_without_evaluations_is_named_not_measured_and_listed_missing():
     for r in made:
         r.evals.pop("fall_ends", None)
     table = ladder_table(made, "quick")
-    assert "not measured at 2: fall ends" in finding(table, "SA under 25 %").text
-    assert finding(table, "four robots below three").holds is None
+    assert table.finding("sa_below").numbers["unmeasured_rungs"] == 1.0  # 2: fall ends
+    assert table.finding("four_below_three").holds is None
     assert any(m.startswith("Cylinder / 4 robots: no finished evaluation") for m in table.missing)
     # the OCB rungs stand only where a mid-level push changes: the friction and legged rungs are not judged there
-    assert "not measured" not in finding(table, "OCB's gain").text.replace("not measured at 2: fall ends", "")
+    assert table.finding("ocb_gain").numbers["unmeasured_rungs"] == 0.0  # nor the fall rung: a push has no fall rule
 
 
 def test_the_fall_shares_come_from_the_evaluations_events():
     table = ladder_table(results(), "quick")
-    line = next(f.text for f in table.findings if f.text.startswith("Episodes with a fall (%), Cuboid / Ours"))
-    assert "1: original 10.0 ± 0.0" in line
+    assert table.finding("falls", "Cuboid / Ours").numbers["1: original"] == 10.0
 
 
 def test_a_fall_cell_reads_the_events_count_and_before_events_the_share_a_fall_ended():
@@ -100,7 +97,7 @@ def test_a_fall_cell_reads_the_events_count_and_before_events_the_share_a_fall_e
     )
     assert fall_cell([counted_, before], eval="main").values == [70.0, 30.0]
     (line,) = events_finding({"Ours": [counted_]}, "main", "Cuboid")  # events a record lacks are left out
-    assert line.text.startswith("Cuboid: episodes with (mean over seeds): Ours a fall 70 %")
+    assert line.key == "events" and line.numbers == {"Ours falls": 70.0}
 
 
 def test_a_tables_setup_line_counts_its_jobs_by_rules_and_low_level():

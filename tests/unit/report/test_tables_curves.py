@@ -15,7 +15,7 @@ import pytest
 from mapush.eval.curve_points import tail_gain
 from mapush.experiments.job_physics import ObjectPhysics
 from mapush.experiments.results import RESULT, Change, JobResult
-from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, csv_text, latex, markdown, sidecar
+from mapush.report.formats import OTHERWISE_NOTE, Cell, Table, csv_text, keys, latex, markdown, pick, sidecar
 
 RULE = {"tail": 0.2, "max_gain": 0.03}
 RANGED = ObjectPhysics(mass_kg=4.0, friction=(0.2, 0.4), mass_range_kg=(2.0, 64.0), robot_capacity_n=50.0)
@@ -99,13 +99,11 @@ def test_a_budget_past_its_peak_is_called_falling_with_the_peak_of_the_mean_curv
     falling = [result([0.6, 0.9, 0.8, 0.8, 0.7]), result([0.7, 0.9, 0.9, 0.9, 0.86])]
     verdict = budget_verdict("Ours", falling)
     assert verdict.holds is True  # it has done its work: the rule holds
-    assert verdict.numbers == pytest.approx({"tail_gain_points": -7.0, "tail_gain_std": 3.0, "limit_points": 3.0})
-    assert str(verdict) == (
-        "Ours: the last 20 % of the budget added -7.0 \u00b1 3.0 points over 2 seeds (rule: < 3): "
-        "flattened, then falling: the mean curve peaked at 90.0 % after 2.0M env-steps"
-    )
-    # a loss smaller than the rule's 3 points is flat, not falling
-    assert str(budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])])).endswith("(rule: < 3): flattened")
+    assert verdict.numbers == pytest.approx({"tail_gain_points": -7.0, "tail_gain_std": 3.0, "limit_points": 3.0,
+                                             "peak_sr": 90.0, "peak_env_steps": 2_000_000})  # fmt: skip
+    # a loss smaller than the rule's 3 points is flat, not falling: no peak to name
+    flat = budget_verdict("Ours", [result([0.6, 0.9, 0.8, 0.8, 0.78])])
+    assert flat.holds is True and "peak_sr" not in flat.numbers
 
 
 def test_a_gain_on_the_rules_bound_is_judged_as_printed_not_by_its_float32_noise():
@@ -119,11 +117,12 @@ def test_a_gain_on_the_rules_bound_is_judged_as_printed_not_by_its_float32_noise
 
     # 0.49 -> 0.52 and 0.36 -> 0.39: +3.0 points, the rule's bound (< 3); in float32 each is +2.9999997
     on_bound = [result([0.1, 0.2, 0.3, 0.49, 0.52]), result([0.1, 0.2, 0.3, 0.36, 0.39])]
-    assert str(budget_verdict("SA", on_bound)).endswith("added +3.0 \u00b1 0.0 points over 2 seeds (rule: < 3): NOT "
-                                                        "flattened: still learning")  # fmt: skip
-    # 0.52 -> 0.49 on both: -3.0, the bound of "falling"; and a gain of 0 prints +0.0, never -0.0
-    assert "then falling" in str(budget_verdict("SA", [result([0.1, 0.2, 0.3, 0.52, 0.49])] * 2))
-    assert "added +0.0 \u00b1 0.0" in str(budget_verdict("SA", [result([0.1, 0.2, 0.3, 0.57, 0.57])] * 2))
+    bound = budget_verdict("SA", on_bound)
+    assert bound.holds is False and bound.numbers["tail_gain_points"] == 3.0  # still learning
+    # 0.52 -> 0.49 on both: -3.0, the bound of "falling"; and a gain of 0 is +0.0, never -0.0
+    assert "peak_sr" in budget_verdict("SA", [result([0.1, 0.2, 0.3, 0.52, 0.49])] * 2).numbers
+    zero = budget_verdict("SA", [result([0.1, 0.2, 0.3, 0.57, 0.57])] * 2).numbers["tail_gain_points"]
+    assert zero == 0.0 and np.copysign(1.0, zero) == 1.0
 
 
 def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
@@ -134,11 +133,9 @@ def test_a_curve_that_stays_at_0_did_not_learn_and_is_not_called_flattened():
         return JobResult(curve={"rule": RULE, "points": points})
 
     never = budget_verdict("H+L", [result([0.0] * 5), result([0.0] * 5)])
-    assert never.holds is False and str(never) == (
-        "H+L: did not learn: 0 % success at every one of 10 evaluated checkpoints"
-    )
+    assert never.holds is False and never.numbers == {"checkpoints": 10}  # 0 % at every evaluated checkpoint
     once = budget_verdict("H+L", [result([0.0, 0.0, 0.02, 0.0, 0.0])])  # one success once: it did learn a little
-    assert once.holds is True and "did not learn" not in str(once) and str(once).endswith("flattened")
+    assert once.holds is True and "checkpoints" not in once.numbers and "tail_gain_points" in once.numbers
 
 
 def test_a_seed_whose_curve_stays_at_0_is_named_beside_the_mean_of_those_that_learned():
@@ -150,10 +147,8 @@ def test_a_seed_whose_curve_stays_at_0_is_named_beside_the_mean_of_those_that_le
 
     learned, never = result(0, [0.0, 0.2, 0.4, 0.5, 0.6]), result(1, [0.0] * 5)
     verdict = budget_verdict("H+L FT", [learned, never])
-    assert str(verdict).endswith("NOT flattened: still learning; did not learn (0 % at every checkpoint): seed 1 "
-                                 "(5 checkpoints)")  # fmt: skip
-    assert verdict.numbers["seeds_not_learned"] == 1
-    assert "did not learn" not in str(budget_verdict("H+L FT", [learned, result(1, [0.0, 0.1, 0.2, 0.3, 0.4])]))
+    assert verdict.holds is False and verdict.numbers["seeds_not_learned"] == 1  # still learning, one seed never
+    assert "seeds_not_learned" not in budget_verdict("H+L FT", [learned, result(1, [0.0, 0.1, 0.2, 0.3, 0.4])]).numbers
 
 
 def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_path, curve_runs):
@@ -164,21 +159,23 @@ def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_
     # ours reaches 50 % at 2, 3 and 4 M -> 3.00 +- 0.82; without OCB only seed 1 does, at 3 M
     assert "| 3.00 \u00b1 0.82 |" in md
     assert "| 3.00 (1 seed) (2 of 3 seeds never) |" in md
+    side = json.loads((tmp_path / "out" / "ocb_ablation_quick.json").read_text())
+    found = {(f["key"], f["about"]): f for f in side["findings"]}
     # final S.R. at 20 s: 70.0 +- 8.2 against 40.0 +- 8.2: a gap of 30 points, spread hypot(8.16, 8.16) = 11.5
-    assert (
-        "timeout 20 s: the paper's OCB gain in S.R. (57 vs 13) holds here: +30.0 points (the seeds' spread 11.5: "
-        "both arms' stds, in quadrature)" in md
+    gain = found["ocb_sr_gain", "timeout 20 s"]
+    assert gain["holds"] is True and gain["numbers"] == pytest.approx(
+        {"gain": 30.0, "spread": 11.547, "paper_with": 57.0, "paper_without": 13.0}, abs=1e-3
     )
     # C.T. 16 s in both arms: no saving, against the paper's 14.9 vs 18.3 s
-    assert (
-        "the paper's OCB saving in C.T. (14.9 vs 18.3) does not hold here: +0.0 s (the seeds' spread 0.0: both "
-        "arms' stds, in quadrature)" in md
+    saving = found["ocb_ct_saving", "timeout 20 s"]
+    assert saving["holds"] is False and saving["numbers"] == pytest.approx(
+        {"gain": 0.0, "spread": 0.0, "paper_with": 14.9, "paper_without": 18.3}
     )
-    assert "timeout 20 s (the paper measured none): Ours 3.00 \u00b1 0.82; Ours w/o OCB 3.00 (1 seed) (2 of 3" in md
+    assert found["steps_to_reach", ""]["holds"] is None  # a reading: the paper measured none
     # last fifth: ours gains 1, 2, 3 points -> +2.0 +- 0.8; without OCB 5, 0, 10 -> +5.0 +- 4.1
-    assert "Ours: the last 20 % of the budget added +2.0 \u00b1 0.8 points over 3 seeds (rule: < 3): flattened" in md
-    assert "Ours w/o OCB: the last 20 % of the budget added +5.0 \u00b1 4.1 points over 3 seeds (rule: < 3): NOT" in md
-    side = json.loads((tmp_path / "out" / "ocb_ablation_quick.json").read_text())
+    ours, without = found["budget", "Ours"], found["budget", "Ours w/o OCB"]
+    assert ours["holds"] is True and ours["numbers"]["tail_gain_points"] == pytest.approx(2.0)
+    assert without["holds"] is False and without["numbers"]["tail_gain_points"] == pytest.approx(5.0)
     reach = [c for c in side["cells"] if c["column"].startswith("Env-steps")]
     assert [(c["seeds"], c["unreached"], len(c["sources"])) for c in reach] == [(3, 0, 3), (1, 2, 1)]
     assert (tmp_path / "out" / "ocb_ablation_quick_curves.png").stat().st_size > 1000
@@ -215,33 +212,38 @@ def test_the_main_tables_findings_from_hand_made_results():
         job("hl_ft", 0, {"main": (0.50, 0.70)}),
     ]
     found = _main_findings(results, PAPER["main"], "cuboid")
+    assert keys(found) == [(key, "Cuboid") for key in ("ours_vs_paper", "success_time", "ours_above_baselines",
+                           "sa_below_ours", "hl_vs_pusher", "hl_ft_vs_pusher", "high_level_vs_path", "legged_gap",
+                           "legged_sa_below_ours")]  # fmt: skip
     # Ours: S.R. (80 + 70) / 2 = 75.0 < 77.5, C.T. (0.5 + 0.6) / 2 = 0.55 <= 0.66: the paper's claim fails on S.R.
-    assert found[0].holds is False
-    assert found[0].numbers == pytest.approx({"ours_sr": 75.0, "paper_sr": 77.5, "ours_ct": 0.55, "paper_ct": 0.66})
-    assert str(found[0]) == (
-        "Cuboid: Ours S.R. 75.0 % vs the paper's 77.5 % (does not hold: below), C.T. 0.55 vs 0.66 (holds: at or below)"
-    )
+    paper = pick(found, "ours_vs_paper", "Cuboid")
+    assert paper.holds is False
+    assert paper.numbers == pytest.approx({"ours_sr": 75.0, "paper_sr": 77.5, "ours_ct": 0.55, "paper_ct": 0.66})
     # successes alone: (0.55 - 0.25) / 0.75 x 160 s = 64 s; the paper's (0.66 - 0.225) / 0.775 x 160 s = 89.8 s
-    assert found[1].holds is None  # a reading, no claim
-    assert found[1].numbers == pytest.approx({"ours_success_s": 64.0, "paper_success_s": 89.8}, abs=0.1)
+    fast = pick(found, "success_time", "Cuboid")
+    assert fast.holds is None  # a reading, no claim
+    assert fast.numbers == pytest.approx({"ours_success_s": 64.0, "paper_success_s": 89.8}, abs=0.1)
     # the paper's claim that Ours beats every baseline: M+L (80 %) is at or above
-    assert found[2].holds is False and found[2].numbers["M+L"] == pytest.approx(80.0)
-    assert "at or above: M+L" in str(found[2])
+    baselines = pick(found, "ours_above_baselines", "Cuboid")
+    assert baselines.holds is False and baselines.numbers["M+L"] == pytest.approx(80.0)
     # SA (10 + 20) / 2 = 15 % below Ours, beside the drag (4 kg x 9.81 x the friction 0.3-0.35: 11.8-13.7 N)
-    assert found[3].holds is True and found[3].numbers == pytest.approx(
+    assert pick(found, "sa_below_ours", "Cuboid").holds is True
+    assert pick(found, "sa_below_ours", "Cuboid").numbers == pytest.approx(
         {"sa_sr": 15.0, "ours_sr": 75.0, "drag_low_n": 11.77, "drag_high_n": 13.73, "capacity_n": 12.5}, abs=0.01
     )
-    only_where = "one robot moves it only where the friction is low"
-    assert f"drag 11.8-13.7 N against one robot's capacity 12.5 N: {only_where}" in str(found[3])
     # H+L 0 % and H+L FT 50 % against the hand-written pusher's 45 %
-    assert [(f.holds, f.numbers["learned_sr"]) for f in found[4:6]] == [(False, 0.0), (True, 50.0)]
-    assert found[6].holds is False and found[6].numbers["gap_points"] == pytest.approx(-5.0)  # 75 - 80: path only
-    assert found[7].holds is True and found[7].numbers["gap_points"] == pytest.approx(10.0)  # 75 - 65 on Go1s
+    learners = [pick(found, f"{m}_vs_pusher", "Cuboid") for m in ("hl", "hl_ft")]
+    assert [(f.holds, f.numbers["learned_sr"], f.numbers["pusher_sr"]) for f in learners] == [
+        (False, 0.0, 45.0), (True, 50.0, 45.0)]  # fmt: skip
+    path = pick(found, "high_level_vs_path", "Cuboid")
+    assert path.holds is False and path.numbers["gap_points"] == pytest.approx(-5.0)  # 75 - 80: path only
+    legged = pick(found, "legged_gap", "Cuboid")
+    assert legged.holds is True and legged.numbers["gap_points"] == pytest.approx(10.0)  # 75 - 65 on Go1s
     # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
-    assert len(found) == 9 and found[8].holds is False
-    assert found[8].numbers == pytest.approx({"baseline_sr": 65.0, "ours_sr": 65.0})
+    sa_legged = pick(found, "legged_sa_below_ours", "Cuboid")
+    assert sa_legged.holds is False and sa_legged.numbers == pytest.approx({"baseline_sr": 65.0, "ours_sr": 65.0})
     results[3].evals["go1"].success_rate = 0.80  # (40 + 80) / 2 = 60.0
-    assert _main_findings(results, PAPER["main"], "cuboid")[8].holds is True
+    assert pick(_main_findings(results, PAPER["main"], "cuboid"), "legged_sa_below_ours", "Cuboid").holds is True
     assert _main_findings(results, PAPER["main"], "tblock") == []
 
 
@@ -259,17 +261,12 @@ def test_a_baseline_below_the_pusher_with_a_rising_curve_says_how_many_env_steps
     # two seeds, mean curve 0.05, 0.1, 0.15, 0.2, 0.25: +0.05 over the last fifth (4M to 5M); 0.45 is 0.2 away
     rising = [job("hl_ft", 0, 0.2, [0.0, 0.1, 0.1, 0.2, 0.2]), job("hl_ft", 1, 0.3, [0.1, 0.1, 0.2, 0.2, 0.3])]
     flat = [job("hl", 0, 0.1, [0.1] * 5)]
-    found = [f for f in _main_findings([job("ours", 0, 0.8), *rising, *flat], PAPER["main"], "cuboid")
-             if "hand-written pusher" in str(f)]  # fmt: skip
-    hl, hl_ft = found
-    assert hl_ft.holds is False and hl_ft.numbers["env_steps_to_pusher"] == pytest.approx(9_000_000)
-    assert str(hl_ft).endswith(
-        "H+L FT 25.0 % is below the hand-written pusher's 45.0 % in its action space (H+L, path only); its curve "
-        "still rises: at the rate of its last 20 % it would reach that after about 9M env-steps (its budget: 5.0M "
-        "env-steps)"
+    found = _main_findings([job("ours", 0, 0.8), *rising, *flat], PAPER["main"], "cuboid")
+    hl, hl_ft = (pick(found, f"{m}_vs_pusher", "Cuboid") for m in ("hl", "hl_ft"))
+    assert hl_ft.holds is False and hl_ft.numbers == pytest.approx(
+        {"learned_sr": 25.0, "pusher_sr": 45.0, "env_steps_to_pusher": 9_000_000}
     )
-    assert str(hl).endswith("; its curve does not rise over the last 20 % of its 5.0M env-steps")
-    assert hl.numbers["env_steps_to_pusher"] is None
+    assert hl.holds is False and hl.numbers["env_steps_to_pusher"] is None  # a flat curve never reaches it
 
 
 def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
@@ -287,9 +284,9 @@ def test_the_legged_finding_names_the_exceptions_that_ended_its_episodes():
 
     found = _main_findings([job(0, 0.5, 0.40, 0.02), job(1, 0.4, 0.30, 0.0)], PAPER["main"], "cuboid")
     # 80 - 45 = 35 points; robot_tilt (40 + 30) / 2 = 35 %, robot_collision (2 + 0) / 2 = 1 %, diverged left out
-    assert found[-1].holds is False and str(found[-1]) == (
-        "Cuboid: on legged Go1s Ours loses 35.0 points of S.R., not within 10 points; "
-        "episodes ended by robot_tilt 35 %, robot_collision 1 % (mean over 2 seeds)"
+    legged = pick(found, "legged_gap", "Cuboid")
+    assert legged.holds is False and legged.numbers == pytest.approx(
+        {"gap_points": 35.0, "ended_by robot_tilt": 35.0, "ended_by robot_collision": 1.0}
     )
 
 
@@ -303,15 +300,14 @@ def test_each_object_says_what_ended_each_method_s_episodes():
 
     jobs = [job("ours", 0, robot_tilt=0.1), job("ours", 1, robot_tilt=0.3, robot_collision=0.04),
             job("ml", 0, robot_collision=0.5), job("sa", 0)]  # fmt: skip
-    last = _main_findings(jobs, PAPER["main"], "cuboid")[-1]
+    last = pick(_main_findings(jobs, PAPER["main"], "cuboid"), "ended_by", "Cuboid")
     # Ours: tilt (10 + 30) / 2 = 20 %, collision (0 + 4) / 2 = 2 %; M+L collision 50 %; SA none; H+L no job
-    assert str(last) == (
-        "Cuboid: episodes ended by an exception (mean over seeds): M+L robot_collision 50 %; "
-        "Ours robot_tilt 20 %, robot_collision 2 %; none: SA"
+    assert last.holds is None and last.numbers == pytest.approx(
+        {"M+L robot_collision": 50.0, "Ours robot_tilt": 20.0, "Ours robot_collision": 2.0}
     )
-    assert last.holds is None and last.numbers["Ours robot_tilt"] == pytest.approx(20.0)
-    jobs[-1].made_otherwise = Change("stages", "its stages changed", ("mid",))  # SA's job: made otherwise
-    assert str(_main_findings(jobs, PAPER["main"], "cuboid")[-1]).endswith("; none: SA \u2020")
+    jobs[0].made_otherwise = Change("stages", "its stages changed", ("mid",))  # one of Ours' jobs: made otherwise
+    marked = pick(_main_findings(jobs, PAPER["main"], "cuboid"), "ended_by", "Cuboid")
+    assert marked.numbers["Ours \u2020 robot_tilt"] == pytest.approx(20.0)
 
 
 def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
@@ -400,13 +396,14 @@ def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli
         (job / RESULT).write_text(json.dumps(result))
     proc = cli("tables", "--runs", tmp_path / "runs", "--out", tmp_path / "out", "--table", "scale")
     assert proc.returncode == 0, proc.stderr
-    md = (tmp_path / "out" / "scale_quick.md").read_text()
+    side = json.loads((tmp_path / "out" / "scale_quick.json").read_text())
+    found = {(f["key"], f["about"]): f for f in side["findings"]}
     # the last fifth of 10M: 8M -> 10M, seed 0 +2 and seed 1 +8 points: +5.0 +- 3.0, over the 2 seeds with a curve
-    assert (
-        "3 robots, mid level: the last 20 % of the budget added +5.0 \u00b1 3.0 points over 2 seeds (rule: < 3): "
-        "NOT flattened: still learning (1 of 3 jobs have no curve of it: their runs were not here to draw it)"
-    ) in md
-    assert "3 robots: the last 20 % of the budget added +10.0 \u00b1 0.0 points over 3 seeds" in md  # the hierarchy's
+    mid = found["budget", "3 robots, mid level"]
+    assert mid["holds"] is False and mid["numbers"] == pytest.approx(
+        {"tail_gain_points": 5.0, "tail_gain_std": 3.0, "limit_points": 3.0, "jobs_without_curve": 1}
+    )
+    assert found["budget", "3 robots"]["numbers"]["tail_gain_points"] == pytest.approx(10.0)  # the hierarchy's
     assert (tmp_path / "out" / "scale_quick_mid_curves.png").stat().st_size > 1000
 
 
@@ -430,38 +427,29 @@ def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made
                   evals={"main": {"success_rate": sr[seed], "completion_time": ct}}, stage_curves=own_curve(mid[seed]))
         for n, (sr, ct, mid) in made.items() for seed in (0, 1)
     ]  # fmt: skip
-    findings = scale_table(results, "quick").findings
-    claims = dict(str(f).split(". Here, ") for f in findings if ". Here, " in str(f))
-    # each claim holds only where it holds for both the hierarchy and the mid level alone: none does here
-    assert [f.holds for f in findings if ". Here, " in str(f)] == [False] * 4
-    paper = "The paper (1, 2, 3, 4 robots): "
+    table = scale_table(results, "quick")
     # hierarchy: 15 +- 5, 60 +- 10, 85 +- 5, 75 +- 5 %; C.T. 0.9, 0.6, 0.4, 0.5; mid level: 40, 40 +- 10, 70, 80 %
-    assert claims == {
-        paper + "one robot struggles": "whole hierarchy: holds (1 robot 15.0 %, the lowest other: 2 robots at 60.0 %); "
-        "mid level alone: does not hold (1 robot 40.0 %, the lowest other: 2 robots at 40.0 %)",
-        paper + "two robots improve S.R. substantially on one": "whole hierarchy: holds (+45.0 points, the seeds' "
-        "spread 10.0); mid level alone: does not hold (+0.0 points, the seeds' spread 10.0)",
-        paper + "three robots are best on both metrics": "whole hierarchy: holds (the highest S.R.: 3 robots; the "
-        "lowest C.T.: 3 robots); mid level alone: does not hold (the highest S.R.: 4 robots)",
-        paper + "four robots do slightly worse than three": "whole hierarchy: holds (-10.0 points from 3 robots to 4); "
-        "mid level alone: does not hold (+10.0 points from 3 robots to 4)",
-    }
-    assert str(findings[0]) == "Best robot count here: 6 (95.0 \u00b1 0.0 % S.R.)" and findings[0].holds is None
-    # 6 robots brought down to 3 robots' mean: a tie, named as one
-    main = {"success_rate": 0.85, "completion_time": 0.3}
-    tied = [dataclasses.replace(r, evals={**r.evals, "main": main}) if r.num_agents == 6 else r for r in results]
-    best = "Best robot count here: 3 (85.0 \u00b1 5.0 % S.R.) and 6 (85.0 \u00b1 0.0 % S.R.), tied"
-    assert str(scale_table(tied, "quick").findings[0]) == best
-    # rows of an earlier recipe (\u2020): the findings that read them say so, those that do not stay as they were
+    levels = ("whole hierarchy", "mid level alone")
+    verdicts = {(key, about): f.holds for f in table.findings for key, about in [(f.key, f.about)] if about in levels}
+    claims = ("one_struggles", "two_improve", "three_best", "four_worse")
+    assert verdicts == {(claim, level): level == "whole hierarchy" for claim in claims for level in levels}
+    assert table.finding("two_improve", "whole hierarchy").numbers == pytest.approx(
+        {"1_robots_sr": 15.0, "2_robots_sr": 60.0}
+    )
+    assert table.finding("four_worse", "mid level alone").numbers == pytest.approx(
+        {"3_robots_sr": 70.0, "4_robots_sr": 80.0}
+    )
+    best = table.finding("best_count")
+    assert best.holds is None and best.numbers == pytest.approx(
+        {"1_robots_sr": 15.0, "2_robots_sr": 60.0, "3_robots_sr": 85.0, "4_robots_sr": 75.0, "6_robots_sr": 95.0}
+    )
+    # rows of an earlier recipe (\u2020): the findings that read them count them, those that do not stay as they were
     earlier = Change("stages", "its stages changed", ("mid",))
     marked = [dataclasses.replace(r, made_otherwise=earlier) if r.num_agents in (4, 6) else r for r in results]
-    findings = {str(f).split(". Here, ")[0]: str(f) for f in scale_table(marked, "quick").findings}
-    assert findings["Best robot count here: 6 \u2020 (95.0 \u00b1 0.0 % S.R.)"]
-    assert findings[paper + "four robots do slightly worse than three"].endswith(
-        "(rows 4 marked \u2020: an earlier recipe's)"
-    )
-    assert findings[paper + "one robot struggles"].endswith("(rows 4 marked \u2020: an earlier recipe's)")
-    assert "\u2020" not in findings[paper + "two robots improve S.R. substantially on one"]
+    table = scale_table(marked, "quick")
+    for claim, rows in (("four_worse", 1.0), ("one_struggles", 1.0), ("two_improve", None)):
+        for level in levels:
+            assert table.finding(claim, level).numbers.get("rows_made_otherwise") == rows, (claim, level)
 
 
 def test_the_scale_table_shows_the_share_of_episodes_a_fall_ended_per_robot_count():
@@ -511,10 +499,8 @@ def test_the_team_table_gives_each_cell_its_capacity_margin_and_the_fewest_robot
     partial = [dataclasses.replace(r, evals={k: v for k, v in r.evals.items() if k != "m64"}) if r.num_agents == 4
                else r for r in results]  # fmt: skip
     assert "cuboid / 4 robots / 64 kg: no job evaluated it (m64)" in team_table(partial, "quick").missing
-    found = next(f for f in table.findings if str(f).startswith("cuboid:"))
+    found = table.finding("fewest_robots", "cuboid")
     assert found.numbers == {"2_kg_robots": 1, "8_kg_robots": 1, "24_kg_robots": 2}  # 64 kg: none of the four
-    assert str(found).startswith("cuboid: the fewest robots reaching 50 % S.R. by mass: 2 kg: 1 (margin ")
-    assert "24 kg: 2 (margin " in str(found) and str(found).endswith("64 kg: none of 4")
     team_plot(table, tmp_path / "team.png")
     assert (tmp_path / "team.png").stat().st_size > 0
 
@@ -535,12 +521,8 @@ def test_the_team_table_says_what_ended_each_robot_counts_episodes_over_its_mass
         JobResult(job_dir="agents=1,seed=1", table="team", variant="quick", num_agents=1, seed=1, task="cuboid",
                   evals=evals({"robot_collision": 0.1}), physics=RANGED)
     ]  # fmt: skip
-    found = next(f for f in team_table(results, "quick").findings if "ended by an exception" in str(f))
-    # 1 robot: falls 30 % in seed 0 and none in seed 1: 15 %; collisions 5 %; 2 robots have no job
-    assert str(found) == (
-        "cuboid: episodes ended by an exception (mean over masses and seeds): 1 robot: robot_tilt 15 %, "
-        "robot_collision 5 %; 3 robots: robot_collision 60 %; 4 robots: none"
-    )
+    found = team_table(results, "quick").finding("ended_by", "cuboid")
+    # 1 robot: falls 30 % in seed 0 and none in seed 1: 15 %; collisions 5 %; 2 robots have no job; 4 robots: none
     assert found.holds is None and found.numbers == pytest.approx(
         {"1 robot robot_tilt": 15.0, "1 robot robot_collision": 5.0, "3 robots robot_collision": 60.0}
     )
@@ -573,18 +555,15 @@ def test_the_team_table_weighs_a_policy_trained_over_the_masses_against_one_trai
         one_mass("scale,seed=1", "runs/mid1", (0.3, 0.5, 0.6, 0.9), table="scale"),  # the same run, taken: once
         one_mass("heavy", "runs/mid2", (0.0, 0.0, 0.0, 0.0), overrides=["task.object.mass=24"]),  # not its own mass
     ]
-    found = [f for f in team_table(team + references, "quick").findings if "trained over" in str(f)]
-    assert len(found) == 1  # only the cuboid's one robot has jobs of both kinds
-    assert str(found[0]) == (
-        "cuboid / 1 robot: trained over 2.0-64.0 kg, 20.0 % at 2 kg, 10.0 % at 8 kg after 6.0M env-steps; trained at "
-        "its own 4 kg (main SA, 2 seeds), 70.0 \u00b1 10.0 % there at 6.0M: the range costs 50.0 points against the "
-        "better of them, beyond the seeds' spread (10.0)"
+    found = [f for f in team_table(team + references, "quick").findings if f.key == "own_mass"]
+    assert keys(found) == [("own_mass", "cuboid / 1 robot")]  # only the cuboid's one robot has jobs of both kinds
+    # at 2 and 8 kg, either side of its own 4 kg: 20 and 10 %; at its own mass (the two runs, once each): 70 +- 10 %
+    assert found[0].holds is False and found[0].numbers == pytest.approx(
+        {"range_points": 20.0, "one_mass_points": 70.0, "gap_points": 50.0, "spread_points": 10.0}
     )
-    assert found[0].holds is False and found[0].numbers["gap_points"] == pytest.approx(50.0)
     below = [one_mass("sa,seed=0", "runs/mid0", (0.1, 0.1, 0.15, 0.3))]  # 15 % at 6M: below the range's 20 %
-    close = next(f for f in team_table(team + below, "quick").findings if "trained over" in str(f))
-    assert close.holds is True and str(close).endswith("gains 5.0 points against the better of them, within the "
-                                                      "seeds' spread")  # fmt: skip
+    close = team_table(team + below, "quick").finding("own_mass", "cuboid / 1 robot")
+    assert close.holds is True and close.numbers["gap_points"] == pytest.approx(-5.0)  # the range gains 5 points
 
 
 def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluated_mass_alone():
@@ -601,20 +580,17 @@ def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluat
     at_8 = ["task.object.mass_range=null", "task.object.mass=8.0"]
     alone = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.9), (1, 0.7))]  # 8 kg: 80 +- 10
     assert fixed_mass(alone[0]) == 8.0 and fixed_mass(ranged[0]) is None
-    found_text = [
-        "cuboid / 1 robot at 8 kg: trained over 2.0-64.0 kg, 50.0 \u00b1 10.0 %; trained at 8 kg alone (2 seeds), "
-        "80.0 \u00b1 10.0 %: the range costs 30.0 points, beyond the seeds' spread (20.0)"
-    ]
     assert fixed_mass(job(0, (0,) * 4, ["task.object.mass=8.0"])) is None  # the range still drawn: not one mass
-    found = [f for f in team_table(ranged + alone, "quick").findings if "alone" in str(f)]
-    assert [str(f) for f in found] == found_text  # only the mass the one-mass jobs trained at, though evaluated at all
-    assert found[0].holds is False and found[0].numbers["gap_points"] == pytest.approx(30.0)
+    found = [f for f in team_table(ranged + alone, "quick").findings if f.key == "mass_alone"]
+    assert keys(found) == [("mass_alone", "cuboid / 1 robot at 8 kg")]  # only the mass they trained at
+    # 8 kg: the range 50 +- 10 %, alone 80 +- 10 %: it costs 30 points, beyond the spread (20)
+    expected = {"range_points": 50.0, "one_mass_points": 80.0, "gap_points": 30.0, "spread_points": 20.0}
+    assert found[0].holds is False and found[0].numbers == pytest.approx(expected)
     other = [job(s, (0.0, 0.9, 0.0, 0.0), [*at_8, "lowlevel=go1"], "quick_go1") for s in (0, 1)]  # made otherwise
-    assert [str(f) for f in team_table(ranged + alone + other, "quick").findings if "alone" in str(f)] == found_text
+    assert [f for f in team_table(ranged + alone + other, "quick").findings if f.key == "mass_alone"] == found
     close = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.6), (1, 0.5))]
-    assert str(next(f for f in team_table(ranged + close, "quick").findings if "alone" in str(f))).endswith(
-        "55.0 \u00b1 5.0 %: the range costs 5.0 points, within the seeds' spread"
-    )
+    near = team_table(ranged + close, "quick").finding("mass_alone", "cuboid / 1 robot at 8 kg")
+    assert near.holds is True and near.numbers["one_mass_points"] == pytest.approx(55.0)  # costs 5, within 15
     table = team_table(ranged + alone, "quick")  # the one-mass jobs fill no cell of the study's own table
     assert [c.values for (task, n), cells in table.rows if (task, n) == ("cuboid", "1") for c in cells] == [
         [40.0, 40.0],
@@ -652,19 +628,14 @@ def test_a_row_trained_at_every_mass_alone_is_drawn_from_those_policies_and_mark
     cells = dict((tuple(labels), cells) for labels, cells in table.rows)[("cylinder", "1")]
     assert [c.mean for c in cells] == pytest.approx([40.0, 30.0, 30.0, 0.0])  # not the range's 10 / 10 / 20 / 0
     assert all(c.mark == ALONE for c in cells) and "(cylinder / 1 robot)" in table.note
-    found = [str(f) for f in table.findings]
-    check = (
-        "cylinder / 1 robot at 2 kg: trained over 2.0-64.0 kg, 10.0 \u00b1 0.0 %; trained at 2 kg alone (2 seeds), "
-        "40.0 \u00b1 0.0 %: the range costs 30.0 points, beyond the seeds' spread (0.0)"
-    )
-    ended = "cylinder: episodes ended by an exception (mean over masses and seeds): 1 robot: robot_collision 20 %"
-    assert check in found and ended in found  # the design check still reads the range; what ended, the row's jobs
+    # the design check still reads the range (10 %) against 40 % alone; what ended, the row's jobs
+    check = table.finding("mass_alone", "cylinder / 1 robot at 2 kg")
+    assert check.numbers == pytest.approx({"range_points": 10.0, "one_mass_points": 40.0, "gap_points": 30.0,
+                                           "spread_points": 0.0})  # fmt: skip
+    assert table.finding("ended_by", "cylinder").numbers == pytest.approx({"1 robot robot_collision": 20.0})
     assert "cylinder / 1 robot: no finished job" not in table.missing
-    budgets = [line.split(":")[0] for line in found if "of the budget added" in line]
-    assert budgets == [
-        "cylinder / 1 robot",
-        "cylinder / 1 robot at 8 kg alone",
-    ]  # the others' curves: not at their mass
+    budgets = [about for key, about in keys(table.findings) if key == "budget"]
+    assert budgets == ["cylinder / 1 robot", "cylinder / 1 robot at 8 kg alone"]  # the others' curves: not their mass
     dropped = [r for r in alone if "mass=64.0" not in r.overrides[1]]  # one mass short: the range's row again
     short = dict((tuple(labels), cells) for labels, cells in team_table(ranged + dropped, "quick").rows)
     assert [c.mean for c in short[("cylinder", "1")]] == pytest.approx([10.0, 10.0, 20.0, 0.0])
@@ -688,7 +659,7 @@ def test_a_mean_the_table_prints_as_50_reaches_50_in_its_finding():
     table = team_table(results, "quick")
     cells = dict((tuple(labels), cells) for labels, cells in table.rows)
     assert cells[("cylinder", "2")][0].text().startswith("50.0 \u00b1 8.0")
-    found = next(f for f in table.findings if str(f).startswith("cylinder:"))
+    found = table.finding("fewest_robots", "cylinder")
     assert found.numbers == {"2_kg_robots": 2, "8_kg_robots": 2, "24_kg_robots": 2, "64_kg_robots": 2}
 
 
@@ -740,15 +711,15 @@ def test_a_method_and_a_task_of_yours_get_their_column_and_rows_without_paper_nu
     assert mine.values == [60.0] and mine.paper is None and mine.text() == "60.0 (1 seed)"
     wide = rows[("wide_box", "S.R. (%) \u2191")]
     assert wide[5].values == [70.0] and wide[5].paper is None  # Ours on a task the paper never ran
-    assert not any("wide_box: Ours S.R." in str(f) for f in table.findings)  # nothing of the paper's to hold against
-    assert any(str(f).startswith("Cuboid: Ours S.R. 80.0 % vs the paper's 77.5 %") for f in table.findings)
+    assert ("ours_vs_paper", "wide_box") not in keys(table.findings)  # nothing of the paper's to hold against
+    assert table.finding("ours_vs_paper", "Cuboid").numbers["ours_sr"] == pytest.approx(80.0)
     # a method of yours is no baseline of the paper's claim: at or above Ours, it is told apart, claiming nothing
     better = main_table([job("ours", "cuboid", 0.8), job("sa", "cuboid", 0.5), job("mine", "cuboid", 0.9, "Mine")],
                         "quick")  # fmt: skip
-    found = {str(f).partition(": ")[2].split(":")[0]: f for f in better.findings if str(f).startswith("Cuboid: ")}
-    assert found["baselines below Ours"].holds is True and "Mine" not in str(found["baselines below Ours"])
-    assert str(found["methods of yours, against Ours' 80.0 %"]).endswith(": Mine 90.0 %")
-    assert found["methods of yours, against Ours' 80.0 %"].holds is None
+    baselines = better.finding("ours_above_baselines", "Cuboid")
+    assert baselines.holds is True and baselines.numbers == pytest.approx({"SA": 50.0, "Ours": 80.0})  # no Mine
+    yours = better.finding("yours_beside_ours", "Cuboid")
+    assert yours.holds is None and yours.numbers == pytest.approx({"Mine": 90.0})
 
 
 def test_a_side_variant_lists_missing_only_the_cells_of_the_methods_and_objects_it_ran():
@@ -782,21 +753,15 @@ def test_a_learner_below_the_pusher_says_what_a_longer_budget_trained_on_reached
     quick += [job("hl_ft", t, "quick", [0.0] * 5) for t in ("cuboid", "tblock")]
     longer = [job("hl_ft", "cuboid", "long", [0.0] * 5 + [0.2, 0.4, 0.48, 0.7, 0.8]),  # 0.48 reaches 48 as printed
               job("hl_ft", "tblock", "long", [0.0] * 10)]  # fmt: skip
-    found = {f.text.split(":")[0]: f for f in main_table([*quick, *longer], "quick").findings
-             if "H+L FT" in f.text and "hand-written pusher" in f.text}  # fmt: skip
-    cuboid, tblock = found["Cuboid"], found["T-shape"]
-    assert cuboid.text.endswith(
-        "; trained on to 10.0M env-steps (budget long, 1 seed) it first reached that at the checkpoint of 8.0M "
-        "env-steps (80.0 % at its end; the one before: 40.0 % at 7.0M)"
+    table = main_table([*quick, *longer], "quick")
+    cuboid, tblock = (table.finding("hl_ft_vs_pusher", task) for task in ("Cuboid", "T-shape"))
+    # trained on to 10M env-steps: the cuboid's first reached 48 % at the checkpoint of 8M and ended at 80 %
+    assert cuboid.holds is False and {k: v for k, v in cuboid.numbers.items() if "longer" in k} == pytest.approx(
+        {"env_steps_longer": 10_000_000, "env_steps_to_pusher_longer": 8_000_000, "sr_longer": 80.0}
     )
-    assert cuboid.holds is False and cuboid.numbers["env_steps_to_pusher_longer"] == 8_000_000
-    assert tblock.text.endswith(
-        "; trained on to 10.0M env-steps (budget long, 1 seed) it never reached that: 0.0 % at its end"
-    )
-    assert tblock.numbers["env_steps_to_pusher_longer"] is None
-    hl = [f for f in main_table([*quick, *longer], "quick").findings if f.text.startswith("Cuboid: H+L 0.0")]
-    assert "trained on" not in hl[0].text  # no longer budget trained H+L
-    assert "trained on" not in str(main_table(quick, "quick").findings)  # nor any without the long jobs
+    assert tblock.numbers["env_steps_to_pusher_longer"] is None and tblock.numbers["sr_longer"] == 0.0  # never
+    assert "env_steps_longer" not in table.finding("hl_vs_pusher", "Cuboid").numbers  # no longer budget trained H+L
+    assert not any("env_steps_longer" in f.numbers for f in main_table(quick, "quick").findings)  # nor without them
     longer[1].made_otherwise = Change("stages", "its stages changed", ("high",))  # the T-block's: an earlier recipe
-    marked = [f.text for f in main_table([*quick, *longer], "quick").findings if f.text.startswith("T-shape: H+L FT")]
-    assert "(budget long, 1 seed, \u2020 an earlier recipe) it never reached that" in marked[0]
+    marked = main_table([*quick, *longer], "quick").finding("hl_ft_vs_pusher", "T-shape")
+    assert marked.numbers["longer_made_otherwise"] == 1.0 and "longer_made_otherwise" not in cuboid.numbers
