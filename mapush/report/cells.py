@@ -13,10 +13,9 @@ from mapush.report import curve_findings
 from mapush.report.formats import Cell, Finding, counted, significant
 
 PAPER = yaml.safe_load((Path(__file__).with_name("paper.yaml")).read_text())
-"""The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; each table's `labels`
-are its methods' own (`label` in `conf/method/`)."""
-for _table in ("main", "ocb_ablation"):
-    PAPER[_table]["labels"] = {m: str(group_file("method", m).label) for m in PAPER[_table]["methods"]}
+"""The paper's numbers (`paper.yaml`), which the tables print in parentheses beside ours; the main table's
+`labels` are its methods' own (`label` in `conf/method/`)."""
+PAPER["main"]["labels"] = {m: str(group_file("method", m).label) for m in PAPER["main"]["methods"]}
 
 
 def setup_of(results: list[JobResult]) -> str:

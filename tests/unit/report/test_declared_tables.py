@@ -83,7 +83,14 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
 @pytest.mark.parametrize(
     ("old", "new", "said"),
     [
-        ("note: A toy.", "notes: A toy.", "unknown key 'notes'; valid: claims, columns, jobs, name, note, row_header"),
+        ("note: A toy.", "notes: A toy.", "unknown key 'notes'; valid: claims, columns, curves, eval_labels, jobs"),
+        ("paper: {ours: [77.5, 3.0]}", "paper: main.success_rate.cubiod", "not in paper.yaml: no 'cubiod'; valid: cub"),
+        (
+            "right: {row: sa, column: sr}}",
+            "right: {row: sa, column: sr}, beyond: noise}",
+            "unknown 'noise'; valid: spr",
+        ),
+        ("note: A toy.", "readings: [ct]", "reading: unknown 'ct'; valid: sr"),
         ('op: ">"', 'op: "beats"', "unknown 'beats'; valid: >, <, >=, <="),
         ("eval: main,", "eval: mian,", "column 'sr' eval: unknown 'mian'; valid: "),
         ("metric: success_rate", "metric: succes", "unknown 'succes'; valid: success_rate, completion_time"),
@@ -97,6 +104,22 @@ def test_a_malformed_declaration_is_refused_in_one_line_naming_the_choices(tmp_p
         toy(tmp_path, TOY.replace(old, new))
     assert said in str(refused.value) and "\n" not in str(refused.value)
     assert str(refused.value).startswith("toy.yaml")
+
+
+def test_a_claim_beyond_the_spread_holds_fails_or_lies_within_it(tmp_path):
+    spread = TOY.replace("right: {row: sa, column: sr}}", "right: {row: sa, column: sr}, beyond: spread}")
+    build = toy(tmp_path, spread)
+
+    def beats(ours: tuple[float, float], sa: tuple[float, float]):
+        made = [job("ours", s, r) for s, r in enumerate(ours)] + [job("sa", s, r) for s, r in enumerate(sa)]
+        return build(made, "quick").finding("Ours beats SA")
+
+    # 70 +- 10 against 20 +- 10: 50 points apart, the spread hypot(10, 10) = 14.1
+    clear = beats((0.8, 0.6), (0.1, 0.3))
+    assert clear.holds is True and clear.numbers == pytest.approx({"left": 70.0, "right": 20.0, "spread": 14.142},
+                                                                  abs=1e-3)  # fmt: skip
+    assert beats((0.3, 0.5), (0.2, 0.4)).holds is None  # 40 against 30: 10 points, within 14.1
+    assert beats((0.2, 0.4), (0.3, 0.5)).holds is False  # not above at all
 
 
 def test_a_name_already_taken_is_refused(tmp_path):

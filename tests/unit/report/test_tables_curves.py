@@ -164,14 +164,13 @@ def test_the_ocb_table_has_env_steps_to_50_percent_findings_and_curves(cli, tmp_
     # final S.R. at 20 s: 70.0 +- 8.2 against 40.0 +- 8.2: a gap of 30 points, spread hypot(8.16, 8.16) = 11.5
     gain = found["ocb_sr_gain", "timeout 20 s"]
     assert gain["holds"] is True and gain["numbers"] == pytest.approx(
-        {"gain": 30.0, "spread": 11.547, "paper_with": 57.0, "paper_without": 13.0}, abs=1e-3
+        {"left": 70.0, "right": 40.0, "spread": 11.547}, abs=1e-3
     )
     # C.T. 16 s in both arms: no saving, against the paper's 14.9 vs 18.3 s
     saving = found["ocb_ct_saving", "timeout 20 s"]
-    assert saving["holds"] is False and saving["numbers"] == pytest.approx(
-        {"gain": 0.0, "spread": 0.0, "paper_with": 14.9, "paper_without": 18.3}
-    )
-    assert found["steps_to_reach", ""]["holds"] is None  # a reading: the paper measured none
+    assert saving["holds"] is False and saving["numbers"] == pytest.approx({"left": 16.0, "right": 16.0, "spread": 0.0})
+    reach = found["reading", "Env-steps (M) to 50 % S.R., timeout 20 s"]  # a reading: the paper measured none
+    assert reach["holds"] is None and reach["numbers"] == pytest.approx({"Ours": 3.0, "Ours w/o OCB": 3.0})
     # last fifth: ours gains 1, 2, 3 points -> +2.0 +- 0.8; without OCB 5, 0, 10 -> +5.0 +- 4.1
     ours, without = found["budget", "Ours"], found["budget", "Ours w/o OCB"]
     assert ours["holds"] is True and ours["numbers"]["tail_gain_points"] == pytest.approx(2.0)
@@ -189,7 +188,8 @@ def test_tables_can_write_one_table_and_refuse_an_unknown_one(cli, tmp_path, cur
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == written
     assert (curve_runs / "jobs_checked.json").is_file()  # the memo, with the results it speaks of
     proc = cli("tables", "--runs", curve_runs, "--out", tmp_path / "other", "--table", "table9")
-    assert proc.returncode == 2 and "'table9'" in proc.stderr and "valid: main, ocb_ablation, scale" in proc.stderr
+    valid = "valid: ladder, main, ocb_ablation, scale, solo_team, team"
+    assert proc.returncode == 2 and "'table9'" in proc.stderr and valid in proc.stderr
     assert not (tmp_path / "other").exists()
 
 
