@@ -5,8 +5,8 @@ archive of results that `mapush archive` keeps in git, `results/jobs/`); its sid
 `<table>.json` names the job dirs behind it. A cell with no finished job is marked with an em dash and listed
 with the reason. The paper's numbers (`paper.yaml`) stand beside ours where the paper has them.
 
-One module builds each table (`main_table.py`, `scale_table.py`, `team_table.py`, `ladder_table.py`, from the cells
-of `cells.py`), or one file declares it (`declared/*.yaml`, built by `declared.py`: the OCB ablation, one robot
+One module builds each table (`main_table.py`, `team_table.py`, `ladder_table.py`, from the cells of `cells.py`), or
+one file declares it (`declared/*.yaml`, built by `declared.py`: the OCB ablation, the scalability study, one robot
 against a team); this one writes them all in every format (`BUILDERS`).
 """
 
@@ -23,12 +23,10 @@ from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
 from mapush.report.ladder_table import ladder_table
 from mapush.report.main_table import main_table
-from mapush.report.scale_table import scale_table
 from mapush.report.team_table import team_table
 
 BUILDERS = {
     "main": main_table,
-    "scale": scale_table,
     "team": team_table,
     "ladder": ladder_table,
 }

@@ -367,15 +367,17 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     # falls 30 and 50 % of the 3-robot episodes: 40.0 +- 10.0; the 1-robot record names no exceptions: no cell
     assert "| 3 | 70.0 \u00b1 10.0 | 0.45 \u00b1 0.05 | 72.0 \u00b1 2.0 | 40.0 \u00b1 10.0 |" in scale
     assert "| 1 | 20.0 (1 seed) | 0.90 (1 seed) | \u2014 | \u2014 |" in scale
-    assert "- Best robot count of those finished (1, 3) here: 3 (70.0 \u00b1 10.0 % S.R.)" in scale
-    assert (
-        "- Mid level with 3 robots: 72.0 \u00b1 2.0 % S.R. over 2 seeds; the original's best stored cylinder mid "
-        "level reached 72.3 %: below it, within the seeds' spread"
-    ) in scale
-    assert "- 2 robots: no finished job" in scale
+    side = json.loads((out / "scale_quick.json").read_text())
+    found = {(f["key"], f["about"]): f for f in side["findings"]}
+    best = found["three_best", "whole hierarchy"]  # of those finished, 1 and 3 robots: 3 the highest
+    assert best["holds"] is True and best["numbers"] == pytest.approx({"1 robot": 20.0, "3 robots": 70.0})
+    reference = found["reference_mid", "3 robots"]  # 72.0 +- 2.0 against 72.3: short by 0.3, within the std
+    assert reference["holds"] is None
+    assert reference["numbers"] == pytest.approx({"left": 72.0, "right": 72.3, "spread": 2.0})
+    assert "2 robots / S.R. (%) \u2191: no finished job" in side["missing"]
     assert "| 6 | \u2014 | \u2014 | \u2014 | \u2014 |" in scale  # planned, not run
-    assert "- 6 robots: no finished job" in scale
-    assert "- 1 robot / mid level: no curve of the mid level alone" in scale
+    assert "6 robots / S.R. (%) \u2191: no finished job" in side["missing"]
+    assert "1 robot / Mid level S.R. (%) \u2191: no curve of the mid level" in side["missing"]
     assert (out / "scale_quick.png").stat().st_size > 1000
 
 

@@ -73,7 +73,7 @@ def test_an_experiment_whose_table_no_builder_draws_is_refused_before_it_trains(
     mine.name, mine.table = "mine", "mian"  # a typo
     (conf / "experiment" / "mine.yaml").write_text(OmegaConf.to_yaml(mine))
     monkeypatch.setattr(config, "CONF_DIR", conf)
-    with pytest.raises(BadInput, match=r"experiment=mine: its file says table: mian; valid: main, ocb_ablation, "):
+    with pytest.raises(BadInput, match=r"its file says table: mian; valid: ladder, main, ocb_ablation, "):
         _check_table(["experiment=mine", "seed=0"])
     _check_table(["experiment=ocb_ablation"])  # the shipped ones pass, and an unknown one is left to the sweep
     _check_table(["experiment=nosuch"])

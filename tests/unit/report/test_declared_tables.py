@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from mapush.errors import BadInput
-from mapush.experiments.results import JobResult
+from mapush.experiments.results import Change, JobResult
 from mapush.report import declared
 from mapush.report.formats import markdown, sidecar
 
@@ -85,11 +85,15 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
     [
         ("note: A toy.", "notes: A toy.", "unknown key 'notes'; valid: claims, columns, curves, eval_labels, jobs"),
         ("paper: {ours: [77.5, 3.0]}", "paper: main.success_rate.cubiod", "not in paper.yaml: no 'cubiod'; valid: cub"),
+        ("right: {row: sa, column: sr}}", "right: {row: sa, column: sr}, spread: noise}", "'noise'; valid: beyond"),
         (
             "right: {row: sa, column: sr}}",
-            "right: {row: sa, column: sr}, beyond: noise}",
-            "unknown 'noise'; valid: spr",
+            "right: {row: sa, column: sr}, among: [sa]}",
+            "'among' is for op highest, lowest only, not '>'",
         ),
+        ('op: ">", right: {row: sa, column: sr}', "op: highest, among: [sa]", "among must list the left row 'ours'"),
+        ("right: 25", "right: {paper: main.success_rate.cubiod.sa}", "not in paper.yaml: no 'cubiod'; valid: cuboid"),
+        ("right: 25", "right: {paper: main.tasks}", "is not a number of the paper's; valid: a number or [mean, std]"),
         ("note: A toy.", "readings: [ct]", "reading: unknown 'ct'; valid: sr"),
         ('op: ">"', 'op: "beats"', "unknown 'beats'; valid: >, <, >=, <="),
         ("eval: main,", "eval: mian,", "column 'sr' eval: unknown 'mian'; valid: "),
@@ -107,7 +111,7 @@ def test_a_malformed_declaration_is_refused_in_one_line_naming_the_choices(tmp_p
 
 
 def test_a_claim_beyond_the_spread_holds_fails_or_lies_within_it(tmp_path):
-    spread = TOY.replace("right: {row: sa, column: sr}}", "right: {row: sa, column: sr}, beyond: spread}")
+    spread = TOY.replace("right: {row: sa, column: sr}}", "right: {row: sa, column: sr}, spread: beyond}")
     build = toy(tmp_path, spread)
 
     def beats(ours: tuple[float, float], sa: tuple[float, float]):
@@ -120,6 +124,39 @@ def test_a_claim_beyond_the_spread_holds_fails_or_lies_within_it(tmp_path):
                                                                   abs=1e-3)  # fmt: skip
     assert beats((0.3, 0.5), (0.2, 0.4)).holds is None  # 40 against 30: 10 points, within 14.1
     assert beats((0.2, 0.4), (0.3, 0.5)).holds is False  # not above at all
+
+
+def test_a_highest_claim_holds_only_for_a_strict_highest_and_names_every_row_s_mean(tmp_path):
+    highest = TOY.replace('op: ">", right: {row: sa, column: sr}', "op: highest, among: [sa, ours]")
+    build = toy(tmp_path, highest)
+    top = build([job("ours", 0, 0.8), job("sa", 0, 0.1)], "quick").finding("Ours beats SA")
+    assert top.holds is True and top.numbers == pytest.approx({"Ours": 80.0, "SA": 10.0})
+    assert build([job("ours", 0, 0.5), job("sa", 0, 0.5)], "quick").finding("Ours beats SA").holds is False  # a tie
+    assert build([job("ours", 0, 0.5)], "quick").finding("Ours beats SA").holds is None  # nothing to be above
+
+
+def test_a_claim_within_the_spread_fails_only_short_by_more_than_it_against_a_paper_number(tmp_path):
+    # SA's cell against the paper's SA on the cuboid (4.5 %), at or above it, a shortfall within its std allowed
+    within = TOY.replace(
+        'op: "<", right: 25}', 'op: ">=", right: {paper: main.success_rate.cuboid.sa}, spread: within}'
+    )
+    build = toy(tmp_path, within)
+
+    def at_least(rates):
+        return build([job("sa", s, r) for s, r in enumerate(rates)], "quick").finding("SA stays under 25 %")
+
+    assert at_least((0.04, 0.06)).numbers == pytest.approx({"left": 5.0, "right": 4.5, "spread": 1.0})
+    assert at_least((0.04, 0.06)).holds is True
+    assert at_least((0.02, 0.06)).holds is None  # 4.0 +- 2.0: short by 0.5, within its std
+    assert at_least((0.01, 0.01)).holds is False  # 1.0 +- 0.0: short by 3.5
+
+
+def test_a_claim_reading_a_cell_of_an_earlier_recipe_counts_it(tmp_path):
+    made = [job("ours", 0, 0.8), job("sa", 0, 0.1)]
+    made[0].made_otherwise = Change("stages", "its stages changed", ("mid",))
+    table = toy(tmp_path)(made, "quick")
+    assert table.finding("Ours beats SA").numbers["cells_made_otherwise"] == 1.0
+    assert "cells_made_otherwise" not in table.finding("SA stays under 25 %").numbers
 
 
 def test_a_name_already_taken_is_refused(tmp_path):

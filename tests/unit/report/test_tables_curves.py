@@ -310,19 +310,32 @@ def test_each_object_says_what_ended_each_method_s_episodes():
     assert marked.numbers["Ours \u2020 robot_tilt"] == pytest.approx(20.0)
 
 
-def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
-    from mapush.report.formats import Cell
-    from mapush.report.scale_table import _reference_mid_finding
+def scale_jobs(made: dict) -> list[JobResult]:
+    """Scalability jobs by robot count: (hierarchy S.R. per seed, C.T., the mid level's own curve's end per seed)."""
 
-    def rows(mid):  # the 3-robot row: hierarchy S.R., C.T., mid-level S.R.
-        return [(["3"], [Cell([50.0]), Cell([0.5]), Cell(mid)])]
+    def own_curve(end: float) -> dict:  # the mid level alone: the last point of its own curve is its figure
+        return {"mid": {"points": [{"success_rate": 0.05}, {"success_rate": end}]}}
+
+    return [
+        JobResult(job_dir=f"agents={n},seed={seed}", table="scale", variant="quick", num_agents=n, seed=seed,
+                  evals={"main": {"success_rate": sr[seed], "completion_time": ct}}, stage_curves=own_curve(mid[seed]))
+        for n, (sr, ct, mid) in made.items() for seed in range(len(sr))
+    ]  # fmt: skip
+
+
+def test_the_reference_mid_finding_weighs_the_gap_against_the_seeds_spread():
+    from mapush.report.tables import BUILDERS
+
+    def reference(mid: tuple[float, float]):  # the 3-robot row's mid level, against the original's 72.3 %
+        return BUILDERS["scale"](scale_jobs({3: ((0.5, 0.5), 0.5, mid)}), "quick").finding("reference_mid", "3 robots")
 
     # 61 +- 1 is 11.3 points below 72.3: beyond the spread; 80 +- 2 at or above; 71 +- 3 within it
-    below, above, within = (_reference_mid_finding(rows(mid))[0] for mid in ([60.0, 62.0], [78.0, 82.0], [68.0, 74.0]))
-    assert below.holds is False and str(below).endswith("reached 72.3 %: below it")
-    assert above.holds is True and above.numbers == {"mid_sr": 80.0, "mid_sr_std": 2.0, "original_sr": 72.3}
-    assert within.holds is None and str(within).endswith("below it, within the seeds' spread")  # no claim either way
-    assert _reference_mid_finding(rows([])) == []
+    below, above, within = (reference(mid) for mid in ((0.60, 0.62), (0.78, 0.82), (0.68, 0.74)))
+    assert below.holds is False
+    assert above.holds is True and above.numbers == pytest.approx({"left": 80.0, "right": 72.3, "spread": 2.0})
+    assert within.holds is None and within.numbers["left"] == pytest.approx(71.0)  # no claim either way
+    nothing = BUILDERS["scale"](scale_jobs({1: ((0.5, 0.5), 0.5, (0.5, 0.5))}), "quick")
+    assert nothing.finding("reference_mid", "3 robots").holds is None  # no 3-robot job: not measured
 
 
 def test_cells_from_jobs_made_otherwise_are_marked_and_the_jobs_listed():
@@ -408,52 +421,41 @@ def test_a_mid_level_under_a_high_level_is_judged_by_its_own_curve_and_drawn(cli
 
 
 def test_the_scale_table_judges_the_papers_readings_of_its_figure_from_hand_made_results():
-    from mapush.report.scale_table import scale_table
+    from mapush.report.tables import BUILDERS
 
     # (robots: hierarchy S.R. per seed, C.T., mid level S.R. per seed); 6 robots lie outside the paper's figure
-    made = {
+    results = scale_jobs({
         1: ((0.1, 0.2), 0.9, (0.4, 0.4)),
         2: ((0.5, 0.7), 0.6, (0.3, 0.5)),
         3: ((0.8, 0.9), 0.4, (0.7, 0.7)),
         4: ((0.7, 0.8), 0.5, (0.8, 0.8)),
         6: ((0.95, 0.95), 0.3, (0.99, 0.99)),
-    }
-
-    def own_curve(end: float) -> dict:  # the mid level alone: the last point of its own curve is its figure
-        return {"mid": {"points": [{"success_rate": 0.05}, {"success_rate": end}]}}
-
-    results = [
-        JobResult(job_dir=f"agents={n},seed={seed}", table="scale", variant="quick", num_agents=n, seed=seed,
-                  evals={"main": {"success_rate": sr[seed], "completion_time": ct}}, stage_curves=own_curve(mid[seed]))
-        for n, (sr, ct, mid) in made.items() for seed in (0, 1)
-    ]  # fmt: skip
-    table = scale_table(results, "quick")
-    # hierarchy: 15 +- 5, 60 +- 10, 85 +- 5, 75 +- 5 %; C.T. 0.9, 0.6, 0.4, 0.5; mid level: 40, 40 +- 10, 70, 80 %
-    levels = ("whole hierarchy", "mid level alone")
-    verdicts = {(key, about): f.holds for f in table.findings for key, about in [(f.key, f.about)] if about in levels}
+    })  # fmt: skip
+    table = BUILDERS["scale"](results, "quick")
+    # hierarchy: 15 +- 5, 60 +- 10, 85 +- 5, 75 +- 5 %; C.T. 0.9, 0.6, 0.4, 0.5; mid level: 40, 40 +- 10, 70, 80 %:
+    # every reading holds for the hierarchy (C.T. too), none for the mid level (1 and 2 robots tie at 40 %)
     claims = ("one_struggles", "two_improve", "three_best", "four_worse")
-    assert verdicts == {(claim, level): level == "whole hierarchy" for claim in claims for level in levels}
+    verdicts = {(f.key, f.about): f.holds for f in table.findings if f.key in claims}
+    levels = {"whole hierarchy": True, "whole hierarchy, C.T.": True, "mid level alone": False}
+    assert verdicts == {(key, about): holds for (key, about) in verdicts for level, holds in levels.items()
+                        if about == level} and len(verdicts) == 9  # fmt: skip
     assert table.finding("two_improve", "whole hierarchy").numbers == pytest.approx(
-        {"1_robots_sr": 15.0, "2_robots_sr": 60.0}
-    )
-    assert table.finding("four_worse", "mid level alone").numbers == pytest.approx(
-        {"3_robots_sr": 70.0, "4_robots_sr": 80.0}
-    )
-    best = table.finding("best_count")
-    assert best.holds is None and best.numbers == pytest.approx(
-        {"1_robots_sr": 15.0, "2_robots_sr": 60.0, "3_robots_sr": 85.0, "4_robots_sr": 75.0, "6_robots_sr": 95.0}
-    )
+        {"left": 60.0, "right": 15.0, "spread": 11.180}, abs=1e-3
+    )  # spread: 10 and 5 in quadrature
+    assert table.finding("four_worse", "mid level alone").numbers == pytest.approx({"left": 80.0, "right": 70.0})
+    best = table.finding("three_best", "whole hierarchy")
+    assert best.numbers == pytest.approx({"1 robot": 15.0, "2 robots": 60.0, "3 robots": 85.0, "4 robots": 75.0})
     # rows of an earlier recipe (\u2020): the findings that read them count them, those that do not stay as they were
     earlier = Change("stages", "its stages changed", ("mid",))
     marked = [dataclasses.replace(r, made_otherwise=earlier) if r.num_agents in (4, 6) else r for r in results]
-    table = scale_table(marked, "quick")
-    for claim, rows in (("four_worse", 1.0), ("one_struggles", 1.0), ("two_improve", None)):
-        for level in levels:
-            assert table.finding(claim, level).numbers.get("rows_made_otherwise") == rows, (claim, level)
+    table = BUILDERS["scale"](marked, "quick")
+    for claim, count in (("four_worse", 1.0), ("one_struggles", 1.0), ("two_improve", None)):
+        for level in ("whole hierarchy", "mid level alone"):
+            assert table.finding(claim, level).numbers.get("cells_made_otherwise") == count, (claim, level)
 
 
 def test_the_scale_table_shows_the_share_of_episodes_a_fall_ended_per_robot_count():
-    from mapush.report.scale_table import scale_table
+    from mapush.report.tables import BUILDERS
 
     def job(n: int, seed: int, exceptions: dict | None) -> JobResult:
         main = {"success_rate": 0.5, "completion_time": 0.5}
@@ -467,7 +469,7 @@ def test_the_scale_table_shows_the_share_of_episodes_a_fall_ended_per_robot_coun
         job(3, 0, {"robot_collision": 0.3}),  # no fall among its exceptions: none ended by one
         job(4, 0, None),  # a record that names no exceptions: no figure
     ]
-    table = scale_table(results, "quick")
+    table = BUILDERS["scale"](results, "quick")
     assert table.columns[-1] == "Falls (%) \u2193"
     falls = {labels[0]: cells[-1] for labels, cells in table.rows}
     assert (falls["2"].mean, falls["2"].std) == pytest.approx((30.0, 10.0))
