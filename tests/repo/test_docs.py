@@ -156,11 +156,17 @@ FIGURE_DOCS = ("README.md", "results/README.md", "docs/*.md")
 GENERATED = (".md", ".csv", ".json")
 
 
+CITED = "mapush/report/paper.yaml"
+"""The numbers of other work (the paper's, the original's stored results), cited once: a doc may quote them too."""
+
+
 def generated_text() -> str:
-    """Every committed generated file under results/ (tables, sidecars, records), `±` written one way."""
+    """Every committed generated file under results/ (tables, sidecars, records), `±` written one way, and the
+    cited numbers of other work as shares (`72.3` in paper.yaml holds `72.3 %`)."""
     names = [n for n in tracked_files() if n.startswith("results/") and n.endswith(GENERATED)]
     texts = [(ROOT / n).read_text() for n in names if Path(n).name != "README.md" and (ROOT / n).is_file()]
-    return PLUS_MINUS.sub(" ± ", "\n".join(texts))
+    cited = [f"{number} %" for number in re.findall(r"(?<![\w.])\d+\.\d(?![\d])", (ROOT / CITED).read_text())]
+    return PLUS_MINUS.sub(" ± ", "\n".join([*texts, *cited]))
 
 
 def unsourced_figures(doc: str, text: str, source: str) -> list[str]:
