@@ -72,9 +72,17 @@ def parse(where: str, given, rows: dict, columns: dict, paper_number) -> Claim:
     """One claim of a declaration, checked against its `rows` and `columns`; `paper_number(where, path)` reads a
     right side given as `{paper: dotted.path}`."""
     given = checked_keys(where, given, CLAIM_KEYS, {"claim", "compare"})
+    for name in ("claim", "key", "about"):
+        if name in given and not isinstance(given[name], str):
+            raise BadInput(f"{where}: {name} {given[name]!r} is not text; valid: a string")
     where = f"{where} {given['claim']!r}"
     compare = checked_keys(where, given["compare"], COMPARE_KEYS, {"left", "op"})
     checked_choice(f"{where} op (the claim's kind)", compare["op"], [*OPS, *EXTREMES])
+    extreme = compare["op"] in EXTREMES
+    for key, needs in (("among", True), ("right", False), ("spread", False)):
+        if key in compare and extreme != needs:
+            kinds = ", ".join(EXTREMES) if needs else ", ".join(OPS)
+            raise BadInput(f"{where}: {key!r} is for op {kinds} only, not {compare['op']!r}")
     if "spread" in compare:
         checked_choice(f"{where} spread", compare["spread"], SPREADS)
 
@@ -85,35 +93,36 @@ def parse(where: str, given, rows: dict, columns: dict, paper_number) -> Claim:
         return Ref(value["row"], value["column"])
 
     left, right, among = ref("left", compare["left"]), None, ()
-    extreme = compare["op"] in EXTREMES
-    for key, needs in (("among", True), ("right", False)):
-        if key in compare and extreme != needs:
-            kinds = ", ".join(EXTREMES) if needs else ", ".join(OPS)
-            raise BadInput(f"{where}: {key!r} is for op {kinds} only, not {compare['op']!r}")
     if extreme:
-        among = tuple(compare.get("among") or ())
+        among = compare.get("among")
+        if not isinstance(among, list) or len(set(map(str, among))) != len(among) or len(among) < 2:
+            raise BadInput(f"{where}: among {among!r} is not a list of two or more rows; valid: rows of {list(rows)}")
         for row in among:
             checked_choice(f"{where} among", row, list(rows))
-        if left.row not in among or len(among) < 2:
-            raise BadInput(f"{where}: among must list the left row {left.row!r} and another; got {list(among)}")
+        if left.row not in among:
+            raise BadInput(f"{where}: among {among} lacks the left row {left.row!r}")
+        among = tuple(among)
     elif "right" not in compare:
         raise BadInput(f"{where}: missing key 'right'; required for op {compare['op']!r}")
-    elif isinstance(compare["right"], int | float):
+    elif isinstance(compare["right"], int | float) and not isinstance(compare["right"], bool):
         right = float(compare["right"])
     elif isinstance(compare["right"], dict) and set(compare["right"]) == {"paper"}:
-        right = _number(f"{where} right", paper_number(f"{where} right", compare["right"]["paper"]))
+        path = compare["right"]["paper"]
+        if not isinstance(path, str):
+            raise BadInput(f"{where} right: paper {path!r} is not a path; valid: a dotted path into paper.yaml")
+        right = _number(f"{where} right", paper_number(f"{where} right", path))
     else:
         right = ref("right", compare["right"])
-    text = str(given["claim"])
-    return Claim(text, left, compare["op"], right, among, compare.get("spread", ""), str(given.get("key", text)),
-                 str(given.get("about", "")))  # fmt: skip
+    text = given["claim"]
+    return Claim(text, left, compare["op"], right, among, compare.get("spread", ""), given.get("key", text),
+                 given.get("about", ""))  # fmt: skip
 
 
 def _number(where: str, value) -> float:
     """A paper number: a number, or the mean of a [mean, std] pair."""
     if isinstance(value, list) and len(value) == 2:
         value = value[0]
-    if not isinstance(value, int | float):
+    if not isinstance(value, int | float) or isinstance(value, bool):
         raise BadInput(f"{where}: {value!r} is not a number of the paper's; valid: a number or [mean, std]")
     return float(value)
 
@@ -128,18 +137,20 @@ def judge(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, columns:
             *(Ref(row, claim.left.column) for row in claim.among)]  # fmt: skip
     marked = sum(bool(cells[r.row, r.column].otherwise) for r in set(read))
     if claim.op in EXTREMES:
-        means = {r: cells[r, claim.left.column].mean for r in claim.among if cells[r, claim.left.column].values}
+        column = claim.left.column
+        means = {r: cells[r, column].mean for r in claim.among if cells[r, column].values}
         numbers = {rows[r]["name"]: m for r, m in means.items()}
+        names = {"left": rows[claim.left.row]["name"], "column": columns[column]["label"]}
         holds = None
         if claim.left.row in means and len(means) > 1:  # strictly: a tie is no highest or lowest
-            others = [m for r, m in means.items() if r != claim.left.row]
-            mine, theirs = means[claim.left.row], EXTREMES[claim.op](others)
+            others = {r: m for r, m in means.items() if r != claim.left.row}
+            best = EXTREMES[claim.op](others, key=others.get)
+            mine, theirs = means[claim.left.row], others[best]
             holds = bool(mine > theirs if claim.op == "highest" else mine < theirs) and not np.isclose(mine, theirs)
-        names = {"left": rows[claim.left.row]["name"], "column": columns[claim.left.column]["label"]}
-        names["digits"] = str(columns[claim.left.column]["digits"])
+            names["other"] = rows[best]["name"]  # the best of the others: who beats or ties it
     else:
-        numbers, stds = {}, []
-        names = {"digits": str(columns[claim.left.column]["digits"])}
+        numbers, stds, seeds = {}, [], []
+        names = {}
         for side, ref in (("left", claim.left), ("right", claim.right)):
             if isinstance(ref, float):
                 numbers[side], names[side] = ref, ""
@@ -148,15 +159,11 @@ def judge(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, columns:
             if cells[ref.row, ref.column].values:
                 numbers[side] = cells[ref.row, ref.column].mean
                 stds.append(cells[ref.row, ref.column].std)
+                seeds.append(len(cells[ref.row, ref.column].values))
         holds = bool(OPS[claim.op][0](numbers["left"], numbers["right"])) if len(numbers) == 2 else None
         if claim.spread and holds is not None:
-            numbers["spread"] = float(np.hypot(*stds)) if len(stds) == 2 else stds[0]
-            left, right = numbers["left"], numbers["right"]
-            towards = left - right if claim.op in (">", ">=") else right - left
-            if claim.spread == "beyond":
-                holds = True if towards > numbers["spread"] else (False if not holds else None)
-            elif not holds:
-                holds = None if -towards <= numbers["spread"] else False
+            holds = _weighed(claim, holds, numbers, stds, seeds)
+    names["digits"] = str(columns[claim.left.column]["digits"])
     if marked:
         numbers["cells_made_otherwise"] = float(marked)
     finding = Finding("", holds, numbers, claim=claim.text, op=claim.op, names=names, key=claim.key,
@@ -164,38 +171,52 @@ def judge(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, columns:
     return dataclasses.replace(finding, text=claim_sentence(finding, claim.spread))
 
 
+def _weighed(claim: Claim, holds: bool, numbers: dict, stds: list[float], seeds: list[int]) -> bool | None:
+    """A comparison's verdict weighed against the seeds' spread (adds `spread` to `numbers`); None where a cell has
+    one seed (no spread to weigh) or the difference lies within the spread."""
+    if min(seeds) < 2:
+        return None
+    numbers["spread"] = float(np.hypot(*stds)) if len(stds) == 2 else stds[0]
+    towards = numbers["left"] - numbers["right"] if claim.op in (">", ">=") else numbers["right"] - numbers["left"]
+    inclusive = claim.op in (">=", "<=")
+    if claim.spread == "beyond":  # clears the spread, or does not differ the claimed way at all
+        clears = towards >= numbers["spread"] if inclusive else towards > numbers["spread"]
+        return True if clears else (False if not holds else None)
+    return True if holds else (None if 0 < numbers["spread"] >= -towards else False)  # within: a small shortfall
+
+
 def claim_sentence(finding: Finding, spread: str = "") -> str:
     """A claim's finding in words: "Ours beats SA on the cuboid: does not hold: Cuboid / Ours, S.R. (%) 60.0 is
     not above Cuboid / SA, S.R. (%) 62.0 (means over seeds)"; weighed against the seeds' spread, it says so."""
-    numbers, digits = finding.numbers, int(finding.names.get("digits", 1))
+    numbers, names, digits = finding.numbers, finding.names, int(finding.names.get("digits", 1))
     marked = f" (cells marked {OTHERWISE}: an earlier recipe's)" if "cells_made_otherwise" in numbers else ""
     if finding.op in EXTREMES:
         if finding.holds is None:
-            return f"{finding.claim}: not measured: no finished job for {finding.names['left']} or any other row"
-        means = {row: v for row, v in numbers.items() if row != "cells_made_otherwise"}
-        top = next(row for row, v in means.items() if v == EXTREMES[finding.op](means.values()))
-        verdict = "holds" if finding.holds else "does not hold"
-        text = (
-            f"{finding.claim}: {verdict}: the {finding.op} {finding.names['column']}: {top} ({means[top]:.{digits}f})"
-        )
-        if not finding.holds:
-            text += f", not {finding.names['left']} ({means[finding.names['left']]:.{digits}f})"
-        return text + f" (means over seeds){marked}"
+            lacking = names["left"] if names["left"] not in numbers else "any other row"
+            return f"{finding.claim}: not measured: no finished job for {lacking}{marked}"
+        mine, theirs = numbers[names["left"]], numbers[names["other"]]
+        if finding.holds:
+            text = f"holds: the {finding.op} {names['column']}: {names['left']} ({mine:.{digits}f}; next "
+            text += f"{names['other']}, {theirs:.{digits}f})"
+        else:
+            how = "ties with" if np.isclose(mine, theirs) else ("is below" if finding.op == "highest" else "is above")
+            text = f"does not hold: {names['left']} ({mine:.{digits}f}) {how} {names['other']} ({theirs:.{digits}f})"
+        return f"{finding.claim}: {text}, {names['column']} (means over seeds){marked}"
     if "left" not in numbers or "right" not in numbers:
-        unmeasured = [finding.names[side] for side in ("left", "right") if side not in numbers]
-        return f"{finding.claim}: not measured: no finished job for {'; '.join(unmeasured)}"
-    left, right = (
-        " ".join(filter(None, [finding.names[side], f"{numbers[side]:.{digits}f}"])) for side in ("left", "right")
-    )
-    stds = "both stds in quadrature" if finding.names["right"] else "its std"
-    how, weighed = OPS[finding.op][1], f"; {stds}" if spread else ""
+        unmeasured = [names[side] for side in ("left", "right") if side not in numbers]
+        return f"{finding.claim}: not measured: no finished job for {'; '.join(unmeasured)}{marked}"
+    left, right = (" ".join(filter(None, [names[side], f"{numbers[side]:.{digits}f}"])) for side in ("left", "right"))
+    how = OPS[finding.op][1]
+    if spread and "spread" not in numbers:
+        return f"{finding.claim}: not judged: {left} against {right}, a cell of one seed has no spread to weigh{marked}"
+    stds = "both stds in quadrature" if names["right"] else "its std"
+    weighed = f"; {stds}" if spread else ""
     if finding.holds is None:  # within the spread
         towards = "by less than" if spread == "beyond" else "short by no more than"
         text = f"within the seeds' spread: {left} is {'' if spread == 'beyond' else 'not '}{how} {right}, {towards}"
         text += f" the seeds' spread {numbers['spread']:.{digits}f}"
     else:
         beyond = f" by more than the seeds' spread {numbers['spread']:.{digits}f}" if spread == "beyond" else ""
-        beyond = beyond if finding.holds else ""
         verdict, negation = ("holds", "") if finding.holds else ("does not hold", "not ")
-        text = f"{verdict}: {left} is {negation}{how} {right}{beyond}"
+        text = f"{verdict}: {left} is {negation}{how} {right}{beyond if finding.holds else ''}"
     return f"{finding.claim}: {text} (means over seeds{weighed}){marked}"

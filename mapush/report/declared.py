@@ -15,6 +15,7 @@ budget, `readings` lists a column's cells under the table.
 from __future__ import annotations
 
 import functools
+import string
 from pathlib import Path
 
 import yaml
@@ -41,6 +42,14 @@ REACH, CURVE_END, FALLS = "env_steps_to_reach", "curve_end", "falls"
 """Columns that read no one number of an evaluation: env-steps (M) to the learning curve's rate (its label may say
 `{reach_pct}` and `{curve_eval}`: the rate in % and the curve's evaluation, by `eval_labels`); the last point of a
 stage's own learning curve (`stage`); the share of an evaluation's episodes with a robot's fall (`cells.fall_cell`)."""
+TYPES = {"name": str, "title": str, "row_header": list, "jobs": dict, "rows": list, "columns": list, "note": str,
+         "claims": list, "curves": str, "readings": list, "eval_labels": dict}  # fmt: skip
+"""What each of a declaration's keys holds."""
+KIND_WORDS = {str: "text", list: "a list", dict: "a mapping"}
+LABEL_FIELDS = ["reach_pct", "curve_eval"]
+"""What a column's label or the curves' title may say in braces (`_label_words`)."""
+RESERVED = {"budget": "the budget checks", "reading": "the readings"}
+"""Finding keys of a declared table's own that no claim may take."""
 METRICS = ["success_rate", "completion_time", "completion_time_s", "path_length_m", FALLS, CURVE_END, REACH]
 """What a column may read."""
 
@@ -52,21 +61,28 @@ def load(path: Path) -> dict:
     decl = checked_keys(where, yaml.safe_load(Path(path).read_text()), KEYS, {"name", "title", "rows", "columns"})
     decl = {"row_header": ["Row"], "jobs": {}, "note": "", "claims": [], "curves": "", "readings": [],
             "eval_labels": {}, **decl}  # fmt: skip
+    for key, kind in TYPES.items():
+        if not isinstance(decl[key], kind):
+            raise BadInput(f"{where}: {key} {decl[key]!r} is not {KIND_WORDS[kind]}; valid: {KIND_WORDS[kind]}")
     checked_keys(f"{where} jobs", decl["jobs"], set(MATCH_KEYS))
     rows, columns = {}, {}
     for row in decl["rows"]:
         checked_keys(f"{where} row", row, ROW_KEYS, {"id", "match"})
+        _new_id(f"{where} row", row["id"], rows)
         checked_keys(f"{where} row {row['id']!r} match", row["match"], set(MATCH_KEYS))
-        label = row.get("label") or _method_label(f"{where} row {row['id']!r}", row["match"])
+        label = row.get("label")
+        label = _method_label(f"{where} row {row['id']!r}", row["match"]) if label is None else label
         label = label if isinstance(label, list) else [label]
         if len(label) != len(decl["row_header"]):
             raise BadInput(f"{where} row {row['id']!r}: {len(label)} labels for row_header {decl['row_header']}")
         label = [str(x) for x in label]
-        rows[row["id"]] = {**row, "label": label, "name": str(row.get("name") or " / ".join(label))}
+        rows[row["id"]] = {**row, "label": label, "name": str(" / ".join(label) if row.get("name") is None
+                                                            else row["name"])}  # fmt: skip
     evals = experiment_evals(decl["jobs"].get("table"))
     for column in decl["columns"]:
         checked_keys(f"{where} column", column, COLUMN_KEYS, {"id", "label", "metric"})
-        name = column["id"]
+        name = _new_id(f"{where} column", column["id"], columns)
+        _fields(f"{where} column {name!r} label", column["label"])
         checked_choice(f"{where} column {name!r} metric", column["metric"], METRICS)
         if column["metric"] != REACH and column["metric"] != CURVE_END:
             checked_choice(f"{where} column {name!r} eval", column.get("eval"), evals)
@@ -78,8 +94,31 @@ def load(path: Path) -> dict:
         columns[name] = {"scale": 1.0, "digits": 1, **column, "paper": paper}
     for name in decl["readings"]:
         checked_choice(f"{where} reading", name, list(columns))
+    _fields(f"{where} curves", decl["curves"])
     claims = [parse(f"{where} claim", c, rows, columns, _paper) for c in decl["claims"]]
+    named = [(c.key, c.about) for c in claims]
+    for key, about in named:
+        if key in RESERVED or named.count((key, about)) > 1:
+            why = f"is {RESERVED[key]}'s" if key in RESERVED else "names two claims"
+            raise BadInput(f"{where} claim: key {key!r} about {about!r} {why}; give each claim its own key or about")
     return {**decl, "rows": rows, "columns": columns, "claims": claims}
+
+
+def _new_id(where: str, given, taken: dict) -> str:
+    """A row's or column's id: a string no other row or column of its kind has."""
+    if not isinstance(given, str) or given in taken:
+        raise BadInput(f"{where}: id {given!r} is {'taken' if given in taken else 'not text'}; valid: a new string")
+    return given
+
+
+def _fields(where: str, text) -> None:
+    """A label or title that `build` formats: text whose `{...}` fields are `LABEL_FIELDS`."""
+    try:
+        names = {field for _, field, _, _ in string.Formatter().parse(str(text)) if field is not None}
+    except ValueError as err:
+        raise BadInput(f"{where}: {text!r} is no label ({err}); valid: text with fields {LABEL_FIELDS}") from None
+    if names - set(LABEL_FIELDS):
+        raise BadInput(f"{where}: unknown field {sorted(names - set(LABEL_FIELDS))[0]!r}; valid: {LABEL_FIELDS}")
 
 
 def _method_label(where: str, match: dict) -> str:
@@ -119,6 +158,14 @@ def build(decl: dict, results: list[JobResult], variant: str) -> Table:
             if not cell.values and not cell.unreached:
                 missing.append(f"{row['name']} / {col['label'].format(**words)}: {lack}")
             cells[row_id, col_id] = cell
+    if decl["jobs"].get("table") == decl["name"]:  # the table's own jobs that no row shows
+        unrowed = [Path(r.job_dir).name for r in jobs if not any(matching([r], **row["match"])
+                                                                 for row in decl["rows"].values())]  # fmt: skip
+        if unrowed:
+            missing.append(
+                f"{len(unrowed)} jobs in no row: {', '.join(sorted(unrowed)[:3])}"
+                + (", ..." if len(unrowed) > 3 else "")
+            )
     rows = [(row["label"], [cells[row_id, c] for c in decl["columns"]]) for row_id, row in decl["rows"].items()]
     findings = [judge(claim, cells, decl["rows"], decl["columns"]) for claim in decl["claims"]]
     findings += [_reading(decl, name, cells, words) for name in decl["readings"]]

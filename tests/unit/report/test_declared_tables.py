@@ -8,7 +8,7 @@ import pytest
 from mapush.errors import BadInput
 from mapush.experiments.results import Change, JobResult
 from mapush.report import declared
-from mapush.report.formats import markdown, sidecar
+from mapush.report.formats import Cell, markdown, sidecar
 
 TOY = """\
 name: toy
@@ -91,7 +91,18 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
             "right: {row: sa, column: sr}, among: [sa]}",
             "'among' is for op highest, lowest only, not '>'",
         ),
-        ('op: ">", right: {row: sa, column: sr}', "op: highest, among: [sa]", "among must list the left row 'ours'"),
+        ('op: ">", right: {row: sa, column: sr}', "op: highest, among: [sa]", "among ['sa'] is not a list of two or"),
+        ('op: ">", right: {row: sa, column: sr}', "op: highest, among: sa", "among 'sa' is not a list of two or more"),
+        ('op: ">", right: {row: sa, column: sr}', "op: highest, among: [sa, sa]", "is not a list of two or more"),
+        ('op: ">", right: {row: sa, column: sr}', "op: highest, among: [sa, ours], spread: beyond", "'spread' is"),
+        ("right: 25", "right: true", "right: expected a mapping"),
+        ("right: 25", "right: {paper: 5}", "paper 5 is not a path; valid: a dotted path into paper.yaml"),
+        ("  - claim: SA stays under 25 %", "  - claim: SA stays under 25 %\n    key: null", "key None is not text"),
+        ("claim: SA stays under 25 %", "claim: Ours beats SA", "key 'Ours beats SA' about '' names two claims"),
+        ("  - claim: SA stays under 25 %", "  - claim: SA stays under 25 %\n    key: budget", "is the budget checks'"),
+        ('label: "S.R. (%)"', 'label: "S.R. {x}"', "column 'sr' label: unknown field 'x'; valid: ['reach_pct'"),
+        ("{id: ours, label: Ours", "{id: sa, label: Ours", "row: id 'sa' is taken; valid: a new string"),
+        ("note: A toy.", "readings: 5", "readings 5 is not a list; valid: a list"),
         ("right: 25", "right: {paper: main.success_rate.cubiod.sa}", "not in paper.yaml: no 'cubiod'; valid: cuboid"),
         ("right: 25", "right: {paper: main.tasks}", "is not a number of the paper's; valid: a number or [mean, std]"),
         ("note: A toy.", "readings: [ct]", "reading: unknown 'ct'; valid: sr"),
@@ -157,6 +168,40 @@ def test_a_claim_reading_a_cell_of_an_earlier_recipe_counts_it(tmp_path):
     table = toy(tmp_path)(made, "quick")
     assert table.finding("Ours beats SA").numbers["cells_made_otherwise"] == 1.0
     assert "cells_made_otherwise" not in table.finding("SA stays under 25 %").numbers
+
+
+def test_a_claim_s_words_name_the_rows_it_compares_a_tie_and_a_one_seed_spread():
+    from mapush.report.claims import Claim, Ref, judge
+
+    rows = {r: {"label": [r], "name": r} for r in ("a", "b", "c")}
+    columns = {"sr": {"label": "S.R.", "digits": 1}}
+
+    def cells(**means):
+        return {(r, "sr"): Cell(list(v)) for r, v in means.items()}
+
+    highest = Claim("a is best", Ref("a", "sr"), "highest", among=("a", "b", "c"))
+    tie = judge(highest, cells(a=[50.0], b=[50.0], c=[10.0]), rows, columns)
+    assert (
+        tie.holds is False
+        and tie.text == "a is best: does not hold: a (50.0) ties with b (50.0), S.R. (means over seeds)"
+    )
+    top = judge(highest, cells(a=[60.0], b=[50.0], c=[10.0]), rows, columns)
+    assert top.holds is True and top.names["other"] == "b"  # the next best, named in its words
+    above = Claim("a above b", Ref("a", "sr"), ">", Ref("b", "sr"), spread="beyond")
+    one_seed = judge(above, cells(a=[60.0], b=[50.0]), rows, columns)
+    assert one_seed.holds is None and "spread" not in one_seed.numbers  # one seed: no spread to weigh
+    equal = Claim("a as b", Ref("a", "sr"), ">=", Ref("b", "sr"), spread="beyond")
+    assert judge(equal, cells(a=[50.0, 50.0], b=[50.0, 50.0]), rows, columns).holds is True  # spread 0, at it
+    within = Claim("a above b", Ref("a", "sr"), ">", Ref("b", "sr"), spread="within")
+    assert judge(within, cells(a=[50.0, 50.0], b=[50.0, 50.0]), rows, columns).holds is False  # spread 0: no slack
+
+
+def test_a_declared_table_lists_its_own_jobs_that_no_row_shows(tmp_path):
+    own = TOY.replace("name: toy", "name: main").replace("  - {id: sa, label: SA, match: {method: sa}}\n", "")
+    own = own[: own.index("claims:")]  # its claims read the row it drops
+    (tmp_path / "own.yaml").write_text(own)
+    table = declared.builders(tmp_path)["main"]([job("ours", 0, 0.8), job("sa", 0, 0.1)], "quick")
+    assert "1 jobs in no row: sa0" in table.missing
 
 
 def test_a_name_already_taken_is_refused(tmp_path):
