@@ -83,12 +83,12 @@ def recover(file: Path, out: Path) -> None:
 
 def layout(overrides: list[str], out: Path | None) -> None:
     """`mapush logs layout`: the Foxglove layout for the episode files of the config of `overrides`."""
-    from mapush.config import compose_config, to_plain
+    if out is not None:
+        output_file(out, "-o")
+    from mapush.config import compose_config, to_plain  # after the check: the reward terms import the envs
     from mapush.logging.layout import episode_layout
     from mapush.rewards.manager import RewardManager
 
-    if out is not None:
-        output_file(out, "-o")
     cfg = to_plain(compose_config(overrides))
     text = episode_layout(list(RewardManager(cfg["reward"]["terms"]).terms)).to_json()
     if out is None:

@@ -33,16 +33,36 @@ def train(overrides: list[str], resume: Path | None, show: str | None) -> None:
             if key != "train.iterations" or not value.isdigit():
                 raise BadInput(f"--resume takes only train.iterations=N as an override, got {override!r}")
             iterations = int(value)
-        prepare_training_video(load_run_config(resume))  # before MuJoCo is imported: it picks the GL backend
+        run_cfg = load_run_config(resume)
+        if iterations is not None and iterations > int(run_cfg.train.iterations):  # lengthening rewrites meta.json:
+            from mapush.config import META_FILE  # one cut or altered is told before training's imports, not after
+            from mapush.records import read_meta
+
+            read_meta(Path(resume) / META_FILE)
+        prepare_training_video(run_cfg)  # before MuJoCo is imported: it picks the GL backend
         from mapush import training
 
         training.resume(resume, iterations, command=f"mapush train --resume {resume} {' '.join(overrides)}".strip())
         return
     cfg = compose_config(overrides)
+    _probe_path(Path(cfg.train.get("run_dir") or cfg.train.run_root))
     prepare_training_video(cfg)
-    from mapush import training
+    from mapush import training  # seconds of torch, rsl-rl and MuJoCo: after what can be refused without them
 
     training.train(cfg, overrides, command=" ".join(["mapush", *sys.argv[1:]]))
+
+
+def _probe_path(path: Path) -> None:
+    """The OSError the filesystem gives a run dir's path that it can never hold (a name or path too long, a loop
+    of links), before training's imports rather than after them; a path that does not exist yet passes."""
+    import errno
+    import os
+
+    try:
+        os.stat(path)
+    except OSError as err:
+        if err.errno in (errno.ENAMETOOLONG, errno.ELOOP):
+            raise
 
 
 def _refuse_multirun(overrides: list[str]) -> None:

@@ -51,16 +51,17 @@ def plan(overrides: list[str], task: str, seed: int, json_path: Path | None, png
     with `maps` > 1, the planner's timing over that many maps."""
     import json
 
-    from mapush.commands import plan as planning
-    from mapush.config import compose_config, to_plain
-    from mapush.levels import make_planner
-
     if maps < 1:
         raise BadInput(f"--maps {maps} must be 1 or more")
     for path, flag in ((json_path, "--json"), (png, "--png")):
         if path is not None:
             output_file(path, flag)
+    from mapush.config import compose_config, to_plain
+
     cfg = to_plain(compose_config(["level=high", f"task={task}", f"seed={seed}", *overrides]))
+    from mapush.commands import plan as planning  # after the checks: the planner and the envs take seconds to import
+    from mapush.levels import make_planner
+
     planner = make_planner(cfg)
     try:
         record, _ = planning.plan_map(cfg, seed, planner)
@@ -103,9 +104,6 @@ def calibrate(
     stands for it, OUT/lowlevel/NAME.yaml; print the fitted values and how to use it."""
     import datetime
 
-    from mapush.calibration.run import calibrate as run_calibration
-    from mapush.calibration.tracker_option import use_line
-
     if config is not None:
         raise BadInput(
             f"--config {config}: calibrate no longer rewrites a tracker config; valid: --name NAME, which writes "
@@ -119,6 +117,9 @@ def calibrate(
     reference = overrides if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
     stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     out_dir = output_dir(out or Path("runs") / "calibrate" / stamp, "--out")
+    from mapush.calibration.run import calibrate as run_calibration  # after the checks: it imports the envs
+    from mapush.calibration.tracker_option import use_line
+
     summary = run_calibration(reference, step_sizes, settle, duration, out_dir, name, repeats, seed)
     written = ", ".join(
         f"{k} {v:.4g}" if not isinstance(v, dict) else f"{k} {v}" for k, v in summary["written"].items()
