@@ -118,6 +118,9 @@ def evaluate(
     if episodes is not None and episodes < 1:
         raise BadInput(f"--episodes {episodes} must be a positive count; valid: 1 or more")
     _check_name(name)
+    from mapush.config.groups import check_groups
+
+    check_groups(overrides)  # an unknown option of a group (rules=lenient) before the simulator and PyTorch load
     from mapush.rundir import resolve_checkpoint
 
     run_dir, _ = resolve_checkpoint(target)  # a missing run is told before the simulator and PyTorch load
