@@ -7,6 +7,10 @@ False, or None where a cell it reads has no finished job. With `spread` it weigh
 stds in quadrature): `beyond`, it holds only where the cells differ the claimed way by more than the spread (None
 between, False where they do not differ that way at all); `within`, a shortfall within the spread is None, not
 False. A claim that reads a cell of jobs made by an earlier recipe (†) says so.
+
+A claim `along: columns` names rows only: it is judged in every column in turn (`judge_along`), and its finding
+names the first column at which it stops holding (the ladder's rungs), where it held before, and where it was
+within the seeds' spread, not measured or not applicable.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import numpy as np
 from mapush.errors import BadInput
 from mapush.report.formats import OTHERWISE, Cell, Finding
 
-CLAIM_KEYS = {"claim", "compare", "key", "about"}
+CLAIM_KEYS = {"claim", "compare", "key", "about", "along"}
 COMPARE_KEYS = {"left", "op", "right", "among", "spread"}
 REF_KEYS = {"row", "column"}
 OPS = {">": (operator.gt, "above"), "<": (operator.lt, "below"), ">=": (operator.ge, "at or above"),
@@ -30,6 +34,8 @@ EXTREMES = {"highest": max, "lowest": min}
 """A cell the highest or lowest of the `among` rows' cells in its column, strictly (a tie is neither)."""
 SPREADS = ["beyond", "within"]
 """How a comparison weighs the seeds' spread."""
+ALONG = ["columns"]
+"""What a claim may be judged along, cell by cell: every column, in order."""
 
 
 @dataclass(frozen=True)
@@ -48,6 +54,7 @@ class Claim:
     spread: str = ""  # "beyond" or "within" (SPREADS)
     key: str = ""  # the finding's key and about (`Finding`); the key defaults to the claim's words
     about: str = ""
+    along: bool = False  # judged in every column (its refs' column is ""), `judge_along`
 
 
 def checked_keys(where: str, given, known: set[str], required: set[str] = frozenset()) -> dict:
@@ -85,10 +92,16 @@ def parse(where: str, given, rows: dict, columns: dict, paper_number) -> Claim:
             raise BadInput(f"{where}: {key!r} is for op {kinds} only, not {compare['op']!r}")
     if "spread" in compare:
         checked_choice(f"{where} spread", compare["spread"], SPREADS)
+    along = "along" in given
+    if along:
+        checked_choice(f"{where} along", given["along"], ALONG)
 
     def ref(side: str, value) -> Ref:
-        value = checked_keys(f"{where} {side}", value, REF_KEYS, REF_KEYS)
+        known = {"row"} if along else REF_KEYS  # along the columns, a side names its row only
+        value = checked_keys(f"{where} {side}{' (along columns: a row only)' if along else ''}", value, known, known)
         checked_choice(f"{where} {side} row", value["row"], list(rows))
+        if along:
+            return Ref(value["row"], "")
         checked_choice(f"{where} {side} column", value["column"], list(columns))
         return Ref(value["row"], value["column"])
 
@@ -115,7 +128,7 @@ def parse(where: str, given, rows: dict, columns: dict, paper_number) -> Claim:
         right = ref("right", compare["right"])
     text = given["claim"]
     return Claim(text, left, compare["op"], right, among, compare.get("spread", ""), given.get("key", text),
-                 given.get("about", ""))  # fmt: skip
+                 given.get("about", ""), along)  # fmt: skip
 
 
 def _number(where: str, value) -> float:
@@ -220,3 +233,63 @@ def claim_sentence(finding: Finding, spread: str = "") -> str:
         verdict, negation = ("holds", "") if finding.holds else ("does not hold", "not ")
         text = f"{verdict}: {left} is {negation}{how} {right}{beyond if finding.holds else ''}"
     return f"{finding.claim}: {text} (means over seeds{weighed}){marked}"
+
+
+def judge_along(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, columns: dict,
+                noun: str = "column") -> Finding:  # fmt: skip
+    """An `along: columns` claim judged in each column in order (each a `noun`: "rung"): it holds False from the
+    first column where it does not hold, True where it held in every column measured, None where it was judged in
+    none or, failing nowhere, was within the seeds' spread somewhere. The finding names that column and the ones
+    before it where it held, and those where a cell it reads is empty (not measured) or not applicable."""
+    judged, unmeasured, inapplicable = [], [], []
+    for k, column in enumerate(columns):
+        at = dataclasses.replace(
+            claim,
+            along=False,
+            left=Ref(claim.left.row, column),
+            right=Ref(claim.right.row, column) if isinstance(claim.right, Ref) else claim.right,
+        )
+        read = [at.left, *([at.right] if isinstance(at.right, Ref) else []), *(Ref(r, column) for r in at.among)]
+        if not all(cells[r.row, r.column].applicable for r in read):
+            inapplicable.append(columns[column]["label"])
+        elif not all(cells[r.row, r.column].values for r in read):
+            unmeasured.append(columns[column]["label"])
+        else:
+            judged.append((k, columns[column]["label"], judge(at, cells, rows, columns)))
+    failing = next((j for j in judged if j[2].holds is False), None)
+    within = [label for _, label, found in judged if found.holds is None]
+    numbers = {f"unmeasured_{noun}s": float(len(unmeasured))}
+    if not judged:
+        holds, text, names = None, f"not measured at any {noun}", {}
+    elif failing is not None:
+        k, label, found = failing
+        held = [other for j, other, f in judged if j < k and f.holds]
+        holds, names = False, {**found.names, "at": label}
+        text = (
+            f"first stops holding at {label} ({_body(claim, found)}); held at {', '.join(held)}"
+            if held
+            else (f"first stops holding at {label} ({_body(claim, found)}); held at no {noun} before it")
+        )
+        numbers |= {f"first_failing_{noun}": float(k), **found.numbers}
+    else:
+        _, label, found = judged[-1]
+        holds, names = (None if within else True), {**found.names, "at": label}
+        text = (
+            f"holds at every {noun} measured (at {label}: {_body(claim, found)})"
+            if not within
+            else (f"fails at no {noun} measured, but is within the seeds' spread at {', '.join(within)}")
+        )
+    if within and failing is not None:
+        text += f"; within the seeds' spread at {', '.join(within)}"
+    for what, where in (("not measured", unmeasured), ("not applicable", inapplicable)):
+        text += f"; {what} at {', '.join(where)}" if where else ""
+    return Finding(f"{claim.text}: {text}", holds, numbers, claim=claim.text, op=claim.op, names=names,
+                   key=claim.key, about=claim.about)  # fmt: skip
+
+
+def _body(claim: Claim, found: Finding) -> str:
+    """A one-column finding's words without the claim and its verdict: what it rests on."""
+    body = found.text.removeprefix(f"{claim.text}: ")
+    for verdict in ("holds: ", "does not hold: ", "within the seeds' spread: "):
+        body = body.removeprefix(verdict)
+    return body

@@ -9,7 +9,9 @@ A column reads one number of the jobs' evaluations (`METRICS`), the end of a sta
 (`curve_end`, with `stage`), the share of episodes with a robot's fall (`falls`) or the env-steps the learning curves
 took to reach their rate (`env_steps_to_reach`); its paper numbers may be read from `paper.yaml` by a dotted path
 (`paper: ocb_ablation.success_rate.t20`, by row id). `curves` draws the rows' learning curves and judges each row's
-budget, `readings` lists a column's cells under the table.
+budget, `readings` lists a column's cells under the table, or (`{metric, label}`) each row's number of an evaluation in
+every column. A row may read its own evaluations in the columns' stead (`evals: {column's: row's}`): then it stands in
+those columns only, and is not applicable (n/a) in the others. `panels` groups rows for the table's own figure.
 """
 
 from __future__ import annotations
@@ -26,14 +28,14 @@ from mapush.experiments.results import JobResult
 from mapush.experiments.stage_plan import experiment_evals
 from mapush.report import curve_findings
 from mapush.report.cells import PAPER, collect, fall_cell, final_cell, matching, reach_cell
-from mapush.report.claims import checked_choice, checked_keys, judge, parse
+from mapush.report.claims import checked_choice, checked_keys, judge, judge_along, parse
 from mapush.report.formats import OVER_SEEDS, Cell, Finding, Table
 
 FOLDER = Path(__file__).with_name("declared")
 """The shipped declarations, one table a file."""
 KEYS = {"name", "title", "row_header", "jobs", "rows", "columns", "note", "claims", "curves", "readings",
-        "eval_labels"}  # fmt: skip
-ROW_KEYS = {"id", "label", "match", "name"}
+        "eval_labels", "panels", "column_noun"}  # fmt: skip
+ROW_KEYS = {"id", "label", "match", "name", "evals"}
 COLUMN_KEYS = {"id", "label", "eval", "metric", "scale", "digits", "paper", "stage"}
 MATCH_KEYS = ["experiment", "table", "budget", "method", "method_label", "task", "num_agents", "seed", "rules",
               "lowlevel"]  # fmt: skip
@@ -43,7 +45,8 @@ REACH, CURVE_END, FALLS = "env_steps_to_reach", "curve_end", "falls"
 `{reach_pct}` and `{curve_eval}`: the rate in % and the curve's evaluation, by `eval_labels`); the last point of a
 stage's own learning curve (`stage`); the share of an evaluation's episodes with a robot's fall (`cells.fall_cell`)."""
 TYPES = {"name": str, "title": str, "row_header": list, "jobs": dict, "rows": list, "columns": list, "note": str,
-         "claims": list, "curves": str, "readings": list, "eval_labels": dict}  # fmt: skip
+         "claims": list, "curves": str, "readings": list, "eval_labels": dict, "panels": dict,
+         "column_noun": str}  # fmt: skip
 """What each of a declaration's keys holds."""
 KIND_WORDS = {str: "text", list: "a list", dict: "a mapping"}
 LABEL_FIELDS = ["reach_pct", "curve_eval"]
@@ -52,6 +55,8 @@ RESERVED = {"budget": "the budget checks", "reading": "the readings"}
 """Finding keys of a declared table's own that no claim may take."""
 METRICS = ["success_rate", "completion_time", "completion_time_s", "path_length_m", FALLS, CURVE_END, REACH]
 """What a column may read."""
+ROW_READING_KEYS = {"metric", "label", "scale"}
+"""A reading of each row in every column (`readings: [{metric: falls, label: ...}]`): an evaluation's number."""
 
 
 def load(path: Path) -> dict:
@@ -60,7 +65,7 @@ def load(path: Path) -> dict:
     where = Path(path).name
     decl = checked_keys(where, yaml.safe_load(Path(path).read_text()), KEYS, {"name", "title", "rows", "columns"})
     decl = {"row_header": ["Row"], "jobs": {}, "note": "", "claims": [], "curves": "", "readings": [],
-            "eval_labels": {}, **decl}  # fmt: skip
+            "eval_labels": {}, "panels": {}, "column_noun": "column", **decl}  # fmt: skip
     for key, kind in TYPES.items():
         if not isinstance(decl[key], kind):
             raise BadInput(f"{where}: {key} {decl[key]!r} is not {KIND_WORDS[kind]}; valid: {KIND_WORDS[kind]}")
@@ -79,6 +84,14 @@ def load(path: Path) -> dict:
         rows[row["id"]] = {**row, "label": label, "name": str(" / ".join(label) if row.get("name") is None
                                                             else row["name"])}  # fmt: skip
     evals = experiment_evals(decl["jobs"].get("table"))
+    for row in rows.values():
+        if "evals" in row:  # the row's own evaluations in the columns' stead
+            mine = experiment_evals(row["match"].get("table", decl["jobs"].get("table")))
+            if not isinstance(row["evals"], dict):
+                raise BadInput(f"{where} row {row['id']!r}: evals {row['evals']!r} is not a mapping; valid: a mapping")
+            for column_eval, own in row["evals"].items():
+                checked_choice(f"{where} row {row['id']!r} evals (a column's)", column_eval, evals)
+                checked_choice(f"{where} row {row['id']!r} evals (its own)", own, mine)
     for column in decl["columns"]:
         checked_keys(f"{where} column", column, COLUMN_KEYS, {"id", "label", "metric"})
         name = _new_id(f"{where} column", column["id"], columns)
@@ -92,14 +105,26 @@ def load(path: Path) -> dict:
         for row in paper:
             checked_choice(f"{where} column {name!r} paper row", row, list(rows))
         columns[name] = {"scale": 1.0, "digits": 1, **column, "paper": paper}
+    reserved = dict(RESERVED)
     for name in decl["readings"]:
-        checked_choice(f"{where} reading", name, list(columns))
+        if isinstance(name, dict):
+            reading = checked_keys(f"{where} reading", name, ROW_READING_KEYS, {"metric", "label"})
+            checked_choice(f"{where} reading metric", reading["metric"], [m for m in METRICS if m not in
+                                                                          (REACH, CURVE_END)])  # fmt: skip
+            reserved[reading["metric"]] = "a reading"
+        else:
+            checked_choice(f"{where} reading", name, list(columns))
+    for title, members in decl["panels"].items():
+        if not isinstance(members, list):
+            raise BadInput(f"{where} panel {title!r}: {members!r} is not a list of rows; valid: rows of {list(rows)}")
+        for row in members:
+            checked_choice(f"{where} panel {title!r} row", row, list(rows))
     _fields(f"{where} curves", decl["curves"])
     claims = [parse(f"{where} claim", c, rows, columns, _paper) for c in decl["claims"]]
     named = [(c.key, c.about) for c in claims]
     for key, about in named:
-        if key in RESERVED or named.count((key, about)) > 1:
-            why = f"is {RESERVED[key]}'s" if key in RESERVED else "names two claims"
+        if key in reserved or named.count((key, about)) > 1:
+            why = f"is {reserved[key]}'s" if key in reserved else "names two claims"
             raise BadInput(f"{where} claim: key {key!r} about {about!r} {why}; give each claim its own key or about")
     return {**decl, "rows": rows, "columns": columns, "claims": claims}
 
@@ -150,14 +175,16 @@ def build(decl: dict, results: list[JobResult], variant: str) -> Table:
     cells: dict[tuple[str, str], Cell] = {}
     missing = []
     for row_id, row in decl["rows"].items():
+        lacking: dict[str, list[str]] = {}  # what a row's empty cells lack, and in which columns
         for col_id, col in decl["columns"].items():
-            cell, lack = _cell(jobs, row["match"], col)
+            cell, lack = _cell(jobs, row, col)
             cell.digits = int(col["digits"])
             paper = col["paper"].get(row_id)
             cell.paper = tuple(float(x) for x in paper) if paper else None
-            if not cell.values and not cell.unreached:
-                missing.append(f"{row['name']} / {col['label'].format(**words)}: {lack}")
+            if not cell.values and not cell.unreached and cell.applicable:
+                lacking.setdefault(lack, []).append(col["label"].format(**words))
             cells[row_id, col_id] = cell
+        missing += [f"{row['name']}: {lack}: {', '.join(columns)}" for lack, columns in lacking.items()]
     if decl["jobs"].get("table") == decl["name"]:  # the table's own jobs that no row shows
         unrowed = [Path(r.job_dir).name for r in jobs if not any(matching([r], **row["match"])
                                                                  for row in decl["rows"].values())]  # fmt: skip
@@ -167,8 +194,10 @@ def build(decl: dict, results: list[JobResult], variant: str) -> Table:
                 + (", ..." if len(unrowed) > 3 else "")
             )
     rows = [(row["label"], [cells[row_id, c] for c in decl["columns"]]) for row_id, row in decl["rows"].items()]
-    findings = [judge(claim, cells, decl["rows"], decl["columns"]) for claim in decl["claims"]]
-    findings += [_reading(decl, name, cells, words) for name in decl["readings"]]
+    findings = [judge_along(claim, cells, decl["rows"], decl["columns"], decl["column_noun"]) if claim.along else
+                judge(claim, cells, decl["rows"], decl["columns"]) for claim in decl["claims"]]  # fmt: skip
+    for name in decl["readings"]:
+        findings += _row_readings(decl, name, jobs) if isinstance(name, dict) else [_reading(decl, name, cells, words)]
     curves = {decl["curves"].format(**words): lines} if decl["curves"] else {}
     if curves:
         findings += curve_findings.budget_findings(lines, curve_findings.drawn_stages(jobs))  # and earlier stages'
@@ -184,20 +213,28 @@ def build(decl: dict, results: list[JobResult], variant: str) -> Table:
         findings,
         curves,
         reading="ours (paper)" if paper else "",
+        panels={title: [decl["rows"][row]["label"] for row in members] for title, members in decl["panels"].items()},
         also_behind=[r for r in jobs if r.table != decl["name"] and any(matching([r], **row["match"])
                                                                         for row in decl["rows"].values())],
     )  # fmt: skip
 
 
-def _cell(jobs: list[JobResult], match: dict, col: dict) -> tuple[Cell, str]:
-    """The cell of a row's jobs (`match`) in a column, and what it lacks where it is empty."""
+def _cell(jobs: list[JobResult], row: dict, col: dict) -> tuple[Cell, str]:
+    """The cell of a row's jobs in a column, and what it lacks where it is empty; not applicable where the row reads
+    its own evaluations and none stands for the column's."""
+    match = row["match"]
+    if "evals" in row and col.get("eval") is not None:
+        if col["eval"] not in row["evals"]:
+            return Cell(applicable=False), ""
+        col = {**col, "eval": row["evals"][col["eval"]]}
     if col["metric"] == REACH:
         return reach_cell(matching(jobs, **match)), "no learning curve"
     if col["metric"] == CURVE_END:
         return final_cell(jobs, col["stage"], float(col["scale"]), **match), f"no curve of the {col['stage']} level"
+    lack = "no finished evaluation" if matching(jobs, **match) else "no finished job"  # jobs, but not this one's
     if col["metric"] == FALLS:
-        return fall_cell(jobs, **match, eval=col["eval"]), "no finished job"
-    return collect(jobs, col["metric"], float(col["scale"]), **match, eval=col["eval"]), "no finished job"
+        return fall_cell(jobs, **match, eval=col["eval"]), lack
+    return collect(jobs, col["metric"], float(col["scale"]), **match, eval=col["eval"]), lack
 
 
 def _label_words(decl: dict, jobs: list[JobResult]) -> dict[str, str]:
@@ -218,6 +255,22 @@ def _reading(decl: dict, name: str, cells: dict, words: dict) -> Finding:
     numbers = {row: cell.mean for row, cell in parts if cell.values}
     return Finding(f"{label}: {'; '.join(f'{row} {cell.text()}' for row, cell in parts)}", None, numbers,
                    key="reading", about=label)  # fmt: skip
+
+
+def _row_readings(decl: dict, reading: dict, jobs: list[JobResult]) -> list[Finding]:
+    """Each row's number of `reading["metric"]` in every column it stands in (its evaluation there), under the
+    table; a row with none is left out."""
+    found = []
+    for row in decl["rows"].values():
+        read = {"metric": reading["metric"], "scale": reading.get("scale", 1.0)}
+        cells = {col["label"]: _cell(jobs, row, {**col, **read})[0]
+                 for col in decl["columns"].values() if col.get("eval") is not None}  # fmt: skip
+        shown = {label: cell for label, cell in cells.items() if cell.applicable}
+        if any(cell.values for cell in shown.values()):
+            text = f"{reading['label']}, {row['name']}: " + ", ".join(f"{k} {c.text()}" for k, c in shown.items())
+            numbers = {label: cell.mean for label, cell in shown.items() if cell.values}
+            found.append(Finding(text, numbers=numbers, key=reading["metric"], about=row["name"]))
+    return found
 
 
 def builders(folder: Path = FOLDER, taken: tuple[str, ...] = ()) -> dict:

@@ -24,6 +24,8 @@ MADE_OTHERWISE = "made otherwise than the experiment plans now (an earlier recip
 OTHERWISE_NOTE = f"{OTHERWISE} {MADE_OTHERWISE.capitalize()}, kept until trained again (`rerun_changed=true`):"
 OTHERWISE_LEGEND = f"{OTHERWISE} {MADE_OTHERWISE}"
 """The same mark's note under a plot's title."""
+NOT_APPLICABLE = "n/a"
+"""A cell whose row does not stand in its column: its jobs make no such evaluation by design."""
 ALONE = "\u2021"
 """Marks a team-study cell drawn from a policy trained at that cell's mass alone, not over the study's mass range."""
 ALONE_LEGEND = f"{ALONE} trained at that mass alone"
@@ -41,6 +43,7 @@ class Cell:
     otherwise: int = 0  # seeds from jobs made otherwise than their experiment plans now (an earlier recipe)
     note: str = ""  # what the cell stands beside, in brackets after its value (e.g. the team study's margin)
     mark: str = ""  # a mark after the note (ALONE: drawn from policies trained at the cell's mass alone)
+    applicable: bool = True  # False: its row does not stand in its column (a declared row's `evals`), "n/a"
 
     @property
     def bracket(self) -> str:
@@ -48,6 +51,8 @@ class Cell:
         return self.note + (f" {self.mark}" if self.mark else "")
 
     def text(self) -> str:
+        if not self.applicable:
+            return NOT_APPLICABLE
         digits = self.digits
         ours = "never reached" if self.unreached else MISSING
         if self.unreached and self.values:
@@ -86,7 +91,7 @@ class Cell:
             "seeds": len(self.values),
             "unreached": self.unreached,
             "made_otherwise": self.otherwise,
-            "note": self.bracket,
+            "note": self.bracket if self.applicable else "not applicable",
             "paper": list(self.paper) if self.paper else None,
             "values": self.values,
             "sources": self.sources,
@@ -151,6 +156,7 @@ class Table:
     reading: str = ""  # how to read a cell, after the title in the table's heading: "ours (paper)"
     also_behind: list = field(default_factory=list)  # jobs of a variant with no table of its own that this one reads
     setup: str = ""  # the rules and low level its jobs were trained under, under the heading (`cells.setup_of`)
+    panels: dict = field(default_factory=dict)  # {title: [row labels]}: how its own figure groups the rows
 
     @property
     def heading(self) -> str:

@@ -131,27 +131,25 @@ def team_plot(table: Table, path: Path) -> None:
 
 
 def ladder_plot(table: Table, path: Path) -> None:
-    """S.R. against the ladder's rungs, one line per row with std error bars: Ours and SA on each object (left),
-    the cylinder's robot counts (right)."""
+    """S.R. against the ladder's rungs, one line per row with std error bars, a panel per group of rows that its
+    declaration names (`panels`: Ours and SA by object, the cylinder's robot counts, OCB's mid levels)."""
     plt = _pyplot()
 
-    panels = {"Ours and SA by object": [], "the cylinder by robot count": []}
-    for labels, cells in table.rows:
-        panels[list(panels)[labels[1].endswith(("robot", "robots"))]].append((" / ".join(labels), cells))
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharey=True)
+    cells_of = {tuple(labels): cells for labels, cells in table.rows}
+    fig, axes = plt.subplots(1, len(table.panels), figsize=(5.5 * len(table.panels), 3.8), sharey=True, squeeze=False)
     rungs = range(len(table.columns))
-    for ax, (panel, lines) in zip(axes, panels.items(), strict=True):
-        for label, cells in lines:
-            pts = [(k, c.mean, c.std) for k, c in zip(rungs, cells, strict=True) if c.values]
+    for ax, (panel, members) in zip(axes[0], table.panels.items(), strict=True):
+        for labels in members:
+            pts = [(k, c.mean, c.std) for k, c in zip(rungs, cells_of[tuple(labels)], strict=True) if c.values]
             if pts:
                 k, m, s = zip(*pts, strict=True)
-                ax.errorbar(k, m, yerr=s, marker="o", capsize=3, label=label)
+                ax.errorbar(k, m, yerr=s, marker="o", capsize=3, label=" / ".join(labels))
         ax.set_xticks(list(rungs), table.columns, rotation=30, ha="right", fontsize=8)
         ax.set_title(panel)
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
-    axes[0].set_ylabel("S.R. (%)")
+    axes[0][0].set_ylabel("S.R. (%)")
     fig.suptitle(textwrap.fill(table.title, 110), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

@@ -5,9 +5,9 @@ archive of results that `mapush archive` keeps in git, `results/jobs/`); its sid
 `<table>.json` names the job dirs behind it. A cell with no finished job is marked with an em dash and listed
 with the reason. The paper's numbers (`paper.yaml`) stand beside ours where the paper has them.
 
-One module builds each table (`main_table.py`, `team_table.py`, `ladder_table.py`, from the cells of `cells.py`), or
-one file declares it (`declared/*.yaml`, built by `declared.py`: the OCB ablation, the scalability study, one robot
-against a team); this one writes them all in every format (`BUILDERS`).
+One module builds each table (`main_table.py`, `team_table.py`, from the cells of `cells.py`), or one file declares
+it (`declared/*.yaml`, built by `declared.py`: the OCB ablation, the scalability study, one robot against a team, the
+ladder); this one writes them all in every format (`BUILDERS`).
 """
 
 from __future__ import annotations
@@ -21,20 +21,18 @@ from mapush.report import curve_findings, declared, plots
 from mapush.report.cells import matching, setup_of
 from mapush.report.cost import cost_after, cost_by, measured_cost
 from mapush.report.formats import Table, csv_text, latex, markdown, sidecar
-from mapush.report.ladder_table import ladder_table
 from mapush.report.main_table import main_table
 from mapush.report.team_table import team_table
 
 BUILDERS = {
     "main": main_table,
     "team": team_table,
-    "ladder": ladder_table,
 }
-"""Each table `mapush tables` writes, by the `table` its experiment names (the ladder: by none, it reads the main
-table's, the scalability study's and the OCB ablation's jobs); a builder returns None for a variant that makes no
-table of its own."""
+"""Each table `mapush tables` writes, by the `table` its experiment names; a builder returns None for a variant that
+makes no table of its own."""
 BUILDERS = dict(sorted({**BUILDERS, **declared.builders(taken=tuple(BUILDERS))}.items()))
-"""And each table declared in `declared/*.yaml`, by its `name` (`declared.py`); all by name."""
+"""And each table declared in `declared/*.yaml`, by its `name` (`declared.py`; the ladder names no jobs of its own: it
+reads the main table's, the scalability study's and the OCB ablation's); all by name."""
 SUMMARY_PLOTS = {"scale": plots.scale_plot, "team": plots.team_plot, "ladder": plots.ladder_plot}
 """The tables drawn as a figure of their own (`<table>.png`) besides their learning curves."""
 

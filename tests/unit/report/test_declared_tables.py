@@ -69,7 +69,7 @@ def test_a_claim_on_an_empty_cell_is_not_measured(tmp_path):
     table = toy(tmp_path)([job("sa", 0, 0.1)], "quick")
     beats = claims(table)["Ours beats SA"]
     assert (beats.holds, beats.numbers) == (None, {"right": 10.0})
-    assert table.missing == ["Ours / S.R. (%): no finished job"]
+    assert table.missing == ["Ours: no finished job: S.R. (%)"]
     assert claims(toy(tmp_path)([job("sa", 0, 0.1)], "long")).get("SA stays under 25 %").holds is None
 
 
@@ -83,7 +83,11 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
 @pytest.mark.parametrize(
     ("old", "new", "said"),
     [
-        ("note: A toy.", "notes: A toy.", "unknown key 'notes'; valid: claims, columns, curves, eval_labels, jobs"),
+        (
+            "note: A toy.",
+            "notes: A toy.",
+            "unknown key 'notes'; valid: claims, column_noun, columns, curves, eval_labels",
+        ),
         ("paper: {ours: [77.5, 3.0]}", "paper: main.success_rate.cubiod", "not in paper.yaml: no 'cubiod'; valid: cub"),
         ("right: {row: sa, column: sr}}", "right: {row: sa, column: sr}, spread: noise}", "'noise'; valid: beyond"),
         (
@@ -111,12 +115,35 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
         ("metric: success_rate", "metric: succes", "unknown 'succes'; valid: success_rate, completion_time"),
         ("{method: sa}", "{methd: sa}", "unknown key 'methd'; valid: budget, experiment, lowlevel, method"),
         ("right: 25", "right: {row: sa, column: ct}", "right column: unknown 'ct'; valid: sr"),
+        (
+            "  - claim: SA stays under 25 %",
+            "  - claim: SA stays under 25 %\n    along: columns",
+            "left (along columns: a row only): unknown key 'column'; valid: row",
+        ),
+        (
+            "  - claim: SA stays under 25 %",
+            "  - claim: SA stays under 25 %\n    along: rows",
+            "along: unknown 'rows'; valid: columns",
+        ),
+        ("match: {method: sa}}", "match: {method: sa}, evals: {main: nope}}", "evals (its own): unknown 'nope'"),
+        ("match: {method: sa}}", "match: {method: sa}, evals: {nope: main}}", "evals (a column's): unknown 'nope'"),
+        ("note: A toy.", "readings: [{metric: curve_end, label: x}]", "reading metric: unknown 'curve_end'; valid: "),
+        ("note: A toy.", "readings: [{metric: falls}]", "reading: missing key 'label'"),
+        ("note: A toy.", "panels: {P: [nobody]}", "panel 'P' row: unknown 'nobody'; valid: sa, ours"),
+        (
+            "  - claim: SA stays under 25 %",
+            "  - claim: SA stays under 25 %\n    key: falls",
+            "key 'falls' about '' is a reading's",
+        ),
     ],
 )
 def test_a_malformed_declaration_is_refused_in_one_line_naming_the_choices(tmp_path, old, new, said):
     assert old in TOY
+    given = TOY.replace(old, new, 1)
+    if "key: falls" in new:  # a claim may not take the key of a reading's findings
+        given = given.replace("note: A toy.", "readings: [{metric: falls, label: Falls}]")
     with pytest.raises(BadInput) as refused:
-        toy(tmp_path, TOY.replace(old, new))
+        toy(tmp_path, given)
     assert said in str(refused.value) and "\n" not in str(refused.value)
     assert str(refused.value).startswith("toy.yaml")
 

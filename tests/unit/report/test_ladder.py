@@ -1,12 +1,19 @@
-"""The ladder table: each paper finding judged rung by rung, from jobs' results made here by hand (known numbers)."""
+"""The ladder table (`declared/ladder.yaml`): each paper finding judged rung by rung, from jobs' results made here by
+hand (known numbers)."""
 
 from __future__ import annotations
 
 from mapush.experiments.results import JobResult
-from mapush.report.formats import keys
-from mapush.report.ladder_table import RUNGS, ladder_table
+from mapush.report import declared
+from mapush.report.formats import NOT_APPLICABLE, keys
 
 OBJECTS = ("cuboid", "tblock", "cylinder")
+LADDER = declared.load(declared.FOLDER / "ladder.yaml")
+RUNGS = [column["eval"] for column in LADDER["columns"].values()]
+
+
+def ladder(results: list[JobResult]):
+    return declared.build(LADDER, results, "quick")
 
 
 def evals(rates: dict[str, float], fell: float = 0.1) -> dict:
@@ -24,19 +31,19 @@ def job(table: str, method: str, task: str, seed: int, rates: dict[str, float], 
 
 def every_rung(sr: float, **at: float) -> dict[str, float]:
     """`sr` on every rung, but the rungs named in `at`."""
-    return {r.eval: at.get(r.eval, sr) for r in RUNGS}
+    return {name: at.get(name, sr) for name in RUNGS}
 
 
-def results(ours_cylinder_strict: float = 0.7) -> list[JobResult]:
+def results(ours_cylinder_strict: float = 0.7, two_robots: tuple[float, float] = (0.5, 0.5)) -> list[JobResult]:
     """Ours 0.8 and SA 0.1 everywhere, but Ours on the cylinder at the `strict` rung and after it; the cylinder's
-    robot counts 1: 0.1, 2: 0.5, 3: 0.8, 4: 0.7 on every rung; OCB 0.6 against 0.2 at 20 s."""
+    robot counts 1: 0.1, 2: `two_robots` (by seed), 3: 0.8, 4: 0.7 on every rung; OCB 0.6 against 0.2 at 20 s."""
     made = []
     for seed in (0, 1):
         for task in OBJECTS:
             low = {"strict": ours_cylinder_strict, "old_tracker": ours_cylinder_strict} if task == "cylinder" else {}
             made.append(job("main", "ours", task, seed, every_rung(0.8, **low)))
             made.append(job("main", "sa", task, seed, every_rung(0.1), agents=1))
-        for n, sr in ((1, 0.1), (2, 0.5), (3, 0.8), (4, 0.7)):
+        for n, sr in ((1, 0.1), (2, two_robots[seed]), (3, 0.8), (4, 0.7)):
             made.append(job("scale", "ours", "cylinder", seed, every_rung(sr), agents=n))
         for method, sr in (("ours", 0.6), ("ours_no_ocb", 0.2)):
             ocb = {"t20": sr, "t20_strict": sr, "t20_old_tracker": sr}
@@ -45,45 +52,66 @@ def results(ours_cylinder_strict: float = 0.7) -> list[JobResult]:
 
 
 def test_every_row_and_rung_is_filled_from_its_jobs_evaluation():
-    table = ladder_table(results(), "quick")
-    assert table.columns == [r.label for r in RUNGS]
+    table = ladder(results())
+    assert table.columns == [column["label"] for column in LADDER["columns"].values()]
     assert not table.missing
     cells = {tuple(labels): cells for labels, cells in table.rows}
     assert [c.mean for c in cells[("Cylinder", "Ours")]] == [80.0, 80.0, 80.0, 70.0, 70.0, 80.0]
     assert cells[("Cylinder", "3 robots")][0].values == [80.0, 80.0]
 
 
+def test_the_ocb_rows_stand_on_the_rungs_their_own_evaluations_map_and_are_not_applicable_on_the_others():
+    table = ladder(results())
+    (ocb,) = [cells for labels, cells in table.rows if labels[1] == "Ours (mid level)"]
+    assert [c.text() if not c.applicable else c.mean for c in ocb] == [
+        NOT_APPLICABLE, 60.0, NOT_APPLICABLE, 60.0, 60.0, NOT_APPLICABLE]  # fmt: skip
+
+
 def test_a_claim_names_the_first_rung_where_it_stops_holding():
-    table = ladder_table(results(ours_cylinder_strict=0.5), "quick")
-    ours = table.finding("ours_at_least")
+    table = ladder(results(ours_cylinder_strict=0.5))
+    ours = table.finding("ours_at_least", "Cylinder")
     assert ours.holds is False and ours.numbers["first_failing_rung"] == 3.0  # 3: strict, the cylinder at 50 %
+    assert ours.numbers["left"] == 50.0 and ours.numbers["right"] == 60.0
+    assert table.finding("ours_at_least", "Cuboid").holds is True
 
 
 def test_claims_that_hold_on_every_rung_say_so():
-    table = ladder_table(results(), "quick")
+    table = ladder(results())
     claims = ["sa_below", "ours_at_least", "team_above_one", "two_above_one", "three_best", "four_below_three",
               "ocb_gain"]  # fmt: skip
-    assert [key for key, _ in keys(table.findings) if key != "falls"] == claims
-    for claim in claims:
-        found = table.finding(claim)
-        assert found.holds is True and found.numbers == {"unmeasured_rungs": 0.0}, found.text
+    assert list(dict.fromkeys(key for key, _ in keys(table.findings) if key != "falls")) == claims
+    for key, about in keys(table.findings):
+        if key != "falls":
+            found = table.finding(key, about)
+            assert found.holds is True and found.numbers == {"unmeasured_rungs": 0.0}, found.text
+
+
+def test_a_difference_within_the_seeds_spread_leaves_a_well_above_claim_unsettled_not_failed():
+    table = ladder(results(two_robots=(0.05, 0.45)))  # 2 robots 25 +- 20 against 1 robot 10 +- 0: within
+    two = table.finding("two_above_one")
+    assert two.holds is None and "first_failing_rung" not in two.numbers
+    assert "within the seeds' spread at 0: orig. friction" in two.text
 
 
 def test_a_rung_without_evaluations_is_named_not_measured_and_listed_missing():
     made = [r for r in results() if not (r.table == "scale" and r.num_agents == 4)]
     for r in made:
         r.evals.pop("fall_ends", None)
-    table = ladder_table(made, "quick")
-    assert table.finding("sa_below").numbers["unmeasured_rungs"] == 1.0  # 2: fall ends
+    table = ladder(made)
+    assert table.finding("sa_below", "Cuboid").numbers["unmeasured_rungs"] == 1.0  # 2: fall ends
     assert table.finding("four_below_three").holds is None
-    assert any(m.startswith("Cylinder / 4 robots: no finished evaluation") for m in table.missing)
-    # the OCB rungs stand only where a mid-level push changes: the friction and legged rungs are not judged there
+    assert "Cylinder / 4 robots: no finished job: 0: orig. friction, 1: original, 2: fall ends" in table.missing[-1]
+    assert "Cuboid / Ours: no finished evaluation: 2: fall ends" in table.missing
+    # the OCB rows stand only where a mid-level push changes: the friction and legged rungs are not judged there
     assert table.finding("ocb_gain").numbers["unmeasured_rungs"] == 0.0  # nor the fall rung: a push has no fall rule
 
 
 def test_the_fall_shares_come_from_the_evaluations_events():
-    table = ladder_table(results(), "quick")
+    table = ladder(results())
     assert table.finding("falls", "Cuboid / Ours").numbers["1: original"] == 10.0
+    assert (
+        "0: orig. friction" not in table.finding("falls", "Free-space cuboid, 20 s pushes / Ours (mid level)").numbers
+    )
 
 
 def test_a_fall_cell_reads_the_events_count_and_before_events_the_share_a_fall_ended():
