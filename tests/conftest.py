@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import fcntl
+import functools
 import os
 import shutil
 import subprocess
@@ -98,6 +99,13 @@ def made_once(tmp_path_factory, name: str, make: Callable[[Path], None]) -> Path
             make(folder)
             done.touch()
     return folder
+
+
+@pytest.fixture(scope="session")
+def make_once(tmp_path_factory) -> Callable[[str, Callable[[Path], None]], Path]:
+    """`made_once` for a test module's own session fixture: `make_once(name, make)` is the folder `make` filled once
+    for every test process."""
+    return functools.partial(made_once, tmp_path_factory)
 
 
 @pytest.fixture(scope="session")

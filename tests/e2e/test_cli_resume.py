@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import shutil
+from pathlib import Path
 
 import pytest
 import torch
@@ -17,18 +18,22 @@ def iterations_logged(path) -> set[int]:
         return {json.loads(m.data)["iteration"] for _, _, m in make_reader(f).iter_messages()}
 
 
-pytestmark = pytest.mark.xdist_group("test_cli_resume")  # one test process makes `resumed` for all
+pytestmark = pytest.mark.xdist_group("test_cli_resume")  # its tests in one process: none waits for `resumed`
 
 
-@pytest.fixture(scope="module")
-def resumed(run_cli, smoke_run, tmp_path_factory):
-    """A copy of the 2-iteration smoke run, continued to 4 iterations."""
-    run_dir = tmp_path_factory.mktemp("resume") / "run"
-    shutil.copytree(smoke_run, run_dir)
-    proc = run_cli(["train", "--resume", run_dir, "train.iterations=4"], cwd=run_dir.parent)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip().splitlines()[-1] == str(run_dir)
-    return run_dir
+@pytest.fixture(scope="session")
+def resumed(run_cli, smoke_run, make_once):
+    """A copy of the 2-iteration smoke run, continued to 4 iterations: made once for every test process
+    (`make_once`), read-only."""
+
+    def make(folder: Path) -> None:
+        run_dir = folder / "run"
+        shutil.copytree(smoke_run, run_dir)
+        proc = run_cli(["train", "--resume", run_dir, "train.iterations=4"], cwd=folder)
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stdout.strip().splitlines()[-1] == str(run_dir)
+
+    return make_once("resumed", make) / "run"
 
 
 @pytest.mark.slow
