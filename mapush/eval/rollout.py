@@ -7,6 +7,7 @@ by the timeout (paper IV-B-1). Seeds give the mean +- std.
 
 from __future__ import annotations
 
+import json
 import shutil
 import sys
 from pathlib import Path
@@ -141,6 +142,7 @@ def evaluate(
     name: str = "",
     video: bool = False,
     out_dir: Path | None = None,
+    reuse: bool = False,
 ) -> Path:
     """Evaluate a run dir or checkpoint over seeds; writes and returns `eval.json` in the run dir.
 
@@ -151,7 +153,8 @@ def evaluate(
     (`eval_video_<name>.mp4`; `mapush.viz.video`). Overrides of what is evaluated (all but `log.*`, `eval.*`)
     without a name get one from the overrides, so that they never overwrite the run's own `eval.json`. Files go
     to `out_dir`, by default the run dir (for a policy shipped in the package: `runs/shipped/...`, so that
-    nothing is written into the installed package).
+    nothing is written into the installed package). `reuse` (a sweep's job resumed after a cut) returns the file
+    as it is where it already holds this very evaluation (`same_evaluation`) rather than evaluating again.
     """
     run_dir, checkpoint = resolve_checkpoint(target)
     name = name or overrides_name([o for o in overrides if not o.lstrip("+~").startswith(("log.", "eval."))])
@@ -166,14 +169,33 @@ def evaluate(
     try:
         # a run being trained is refused at once; a second evaluation into this dir waits: no file written twice
         with run_lock(out_dir, training=False), locked(out_dir):
+            if reuse and same_evaluation(out, cfg, str(checkpoint), episodes, seeds, overrides):
+                return out
             remove_leftovers(out_dir)  # temp files of evaluations that were killed
             per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
-            write_json(out, summarize(cfg, str(checkpoint), episodes, seeds, per_seed) | provenance())
+            made = summarize(cfg, str(checkpoint), episodes, seeds, per_seed) | {"overrides": list(overrides)}
+            write_json(out, made | provenance())
     except BaseException:
         if created:  # a refused evaluation (another agent count, a bad video setting) leaves nothing behind
             shutil.rmtree(out_dir, ignore_errors=True)
         raise
     return out
+
+
+def same_evaluation(path: Path, cfg: dict, checkpoint: str, episodes: int, seeds: list[int], overrides) -> bool:
+    """Whether the eval record at `path` is of this very evaluation: the same checkpoint, episodes, seeds and
+    overrides (records made before they recorded their overrides are not), its robots walked by the same
+    locomotion policy. What it does not record (the code that ran it) it shares with the stage's own identity,
+    which is its config too (`experiments/stages.py`)."""
+    try:
+        record = json.loads(Path(path).read_text())
+    except (OSError, ValueError):  # none, or damaged: evaluate again
+        return False
+    lowlevel = cfg.get("lowlevel")
+    walker = backend_of(lowlevel).policy_fingerprint(lowlevel) if lowlevel and level_of(cfg).walks_robots else None
+    made = {"checkpoint": checkpoint, "episodes": episodes, "seeds": list(seeds), "overrides": list(overrides)}
+    return isinstance(record, dict) and all(record.get(k) == v for k, v in made.items()) and (
+        record.get("lowlevel_policy") == (walker or None))  # summarize records none where it walks none  # fmt: skip
 
 
 def _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video) -> list[dict]:

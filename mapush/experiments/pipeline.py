@@ -142,7 +142,8 @@ def run_job(cfg: DictConfig, job_dir: Path, threads: int) -> JobResult:
             continue
         target = runs[eval_stage(cfg, spec)]
         overrides = eval_overrides(cfg, name)
-        path = evaluate(target, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name)
+        path = evaluate(target, int(budget.eval.episodes), list(budget.eval.seeds), list(overrides), name=name,
+                        reuse=True)  # made before the job was cut: kept  # fmt: skip
         evals[name] = {k: v for k, v in json.loads(path.read_text()).items() if k != "per_seed"}
         evals[name]["file"] = str(path)
         evals[name]["overrides"] = list(overrides)
