@@ -207,6 +207,17 @@ def eval_stage(cfg: DictConfig, spec) -> str:
     return own or evaluated_stage(cfg)
 
 
+def experiment_axis(table: str | None, axis: str) -> list:
+    """The values of the sweep axis `axis` (`agents`, `task`, ...) of the experiments whose jobs fill `table` (every
+    experiment's when None), in the order their files give them; [] where none sweeps it."""
+    values = []
+    for name in group_options("experiment"):
+        spec = group_file("experiment", name)
+        if table is None or spec.get("table") == table:
+            values += [v for v in (spec.get("sweep") or {}).get(axis) or [] if v not in values]
+    return values
+
+
 def experiment_evals(table: str | None) -> list[str]:
     """The evaluations the experiments whose jobs fill `table` make (every experiment's when None), read from their
     files as written: each one's `evals` and those its Hydra defaults take in (`- /ladder@evals: rungs`)."""

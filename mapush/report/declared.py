@@ -25,7 +25,7 @@ import yaml
 from mapush.config import group_file, group_options
 from mapush.errors import BadInput
 from mapush.experiments.results import JobResult
-from mapush.experiments.stage_plan import experiment_evals
+from mapush.experiments.stage_plan import experiment_axis, experiment_evals
 from mapush.report import curve_findings
 from mapush.report.cells import PAPER, collect, fall_cell, final_cell, matching, reach_cell
 from mapush.report.claims import checked_choice, checked_keys, judge, judge_along, parse
@@ -36,6 +36,9 @@ FOLDER = Path(__file__).with_name("declared")
 KEYS = {"name", "title", "row_header", "jobs", "rows", "columns", "note", "claims", "curves", "readings",
         "eval_labels", "panels", "column_noun"}  # fmt: skip
 ROW_KEYS = {"id", "label", "match", "name", "evals"}
+EACH_KEYS = {"each", "id", "label", "name", "match"}
+AXIS_FIELDS = {"agents": "num_agents", "task": "task", "method": "method", "seed": "seed"}
+"""A row per value of a sweep axis (`each: agents`): the field of a job's result each axis fills."""
 COLUMN_KEYS = {"id", "label", "eval", "metric", "scale", "digits", "paper", "stage"}
 MATCH_KEYS = ["experiment", "table", "budget", "method", "method_label", "task", "num_agents", "seed", "rules",
               "lowlevel"]  # fmt: skip
@@ -71,7 +74,7 @@ def load(path: Path) -> dict:
             raise BadInput(f"{where}: {key} {decl[key]!r} is not {KIND_WORDS[kind]}; valid: {KIND_WORDS[kind]}")
     checked_keys(f"{where} jobs", decl["jobs"], set(MATCH_KEYS))
     rows, columns = {}, {}
-    for row in decl["rows"]:
+    for row in [r for given in decl["rows"] for r in _each(where, given, decl["jobs"].get("table"))]:
         checked_keys(f"{where} row", row, ROW_KEYS, {"id", "match"})
         _new_id(f"{where} row", row["id"], rows)
         checked_keys(f"{where} row {row['id']!r} match", row["match"], set(MATCH_KEYS))
@@ -129,6 +132,31 @@ def load(path: Path) -> dict:
     return {**decl, "rows": rows, "columns": columns, "claims": claims}
 
 
+def _each(where: str, row, table: str | None) -> list:
+    """A row as given, or a template's rows: `each: AXIS` makes one per value of that sweep axis of the table's
+    experiments, its `id`, `label` and `name` formatted with the value (`{value}`, and `{s}`: "s" unless it is 1)."""
+    if not isinstance(row, dict) or "each" not in row:
+        return [row]
+    checked_keys(f"{where} row", row, EACH_KEYS, {"each", "id", "label"})
+    checked_choice(f"{where} row each", row["each"], list(AXIS_FIELDS))
+    values = experiment_axis(table, row["each"])
+    if not values:
+        raise BadInput(f"{where} row each: no experiment of table {table!r} sweeps {row['each']!r}; valid: an axis "
+                       "its experiments sweep")  # fmt: skip
+
+    def filled(text, value):
+        if isinstance(text, list):
+            return [filled(part, value) for part in text]
+        _fields(f"{where} row {row['id']!r}", text, ["value", "s"])
+        return str(text).format(value=value, s="" if value == 1 else "s")
+
+    made = []
+    for value in values:
+        one = {key: filled(row[key], value) for key in ("id", "label", "name") if key in row}
+        made.append({**one, "match": {**(row.get("match") or {}), AXIS_FIELDS[row["each"]]: value}})
+    return made
+
+
 def _new_id(where: str, given, taken: dict) -> str:
     """A row's or column's id: a string no other row or column of its kind has."""
     if not isinstance(given, str) or given in taken:
@@ -136,14 +164,14 @@ def _new_id(where: str, given, taken: dict) -> str:
     return given
 
 
-def _fields(where: str, text) -> None:
-    """A label or title that `build` formats: text whose `{...}` fields are `LABEL_FIELDS`."""
+def _fields(where: str, text, valid: list[str] = LABEL_FIELDS) -> None:
+    """A label or title that `build` formats: text whose `{...}` fields are `valid` (`LABEL_FIELDS`)."""
     try:
         names = {field for _, field, _, _ in string.Formatter().parse(str(text)) if field is not None}
     except ValueError as err:
-        raise BadInput(f"{where}: {text!r} is no label ({err}); valid: text with fields {LABEL_FIELDS}") from None
-    if names - set(LABEL_FIELDS):
-        raise BadInput(f"{where}: unknown field {sorted(names - set(LABEL_FIELDS))[0]!r}; valid: {LABEL_FIELDS}")
+        raise BadInput(f"{where}: {text!r} is no label ({err}); valid: text with fields {valid}") from None
+    if names - set(valid):
+        raise BadInput(f"{where}: unknown field {sorted(names - set(valid))[0]!r}; valid: {valid}")
 
 
 def _method_label(where: str, match: dict) -> str:

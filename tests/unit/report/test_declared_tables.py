@@ -130,6 +130,13 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
         ("note: A toy.", "readings: [{metric: curve_end, label: x}]", "reading metric: unknown 'curve_end'; valid: "),
         ("note: A toy.", "readings: [{metric: falls}]", "reading: missing key 'label'"),
         ("note: A toy.", "panels: {P: [nobody]}", "panel 'P' row: unknown 'nobody'; valid: sa, ours"),
+        ("{id: sa, label: SA, match: {method: sa}}", "{each: robots, id: a, label: A}", "row each: unknown 'robots'"),
+        (
+            "{id: sa, label: SA, match: {method: sa}}",
+            "{each: agents, id: a, label: A}",
+            "no experiment of table 'main' sweeps 'agents'",
+        ),
+        ("{id: sa, label: SA, match: {method: sa}}", "{each: task, id: 'a{n}', label: A}", "unknown field 'n'"),
         (
             "  - claim: SA stays under 25 %",
             "  - claim: SA stays under 25 %\n    key: falls",
@@ -221,6 +228,20 @@ def test_a_claim_s_words_name_the_rows_it_compares_a_tie_and_a_one_seed_spread()
     assert judge(equal, cells(a=[50.0, 50.0], b=[50.0, 50.0]), rows, columns).holds is True  # spread 0, at it
     within = Claim("a above b", Ref("a", "sr"), ">", Ref("b", "sr"), spread="within")
     assert judge(within, cells(a=[50.0, 50.0], b=[50.0, 50.0]), rows, columns).holds is False  # spread 0: no slack
+
+
+def test_a_row_template_makes_a_row_per_value_of_the_experiments_sweep_axis(tmp_path):
+    from mapush.experiments.stage_plan import experiment_axis
+
+    template = "  - {each: task, id: 'ours_{value}', label: 'Ours, {value}', match: {method: ours}}\n"
+    text = TOY.replace("  - {id: ours,", template + "  - {id: ours,")
+    cylinder = JobResult(table="main", variant="quick", method="ours", task="cylinder", seed=0,
+                         evals={"main": {"success_rate": 0.25}}, job_dir="c")  # fmt: skip
+    table = toy(tmp_path, text)([job("ours", 0, 0.5), cylinder], "quick")
+    tasks = experiment_axis("main", "task")  # conf/experiment/main.yaml's sweep, in its order
+    assert tasks == ["cuboid", "tblock", "cylinder"]
+    assert [labels[0] for labels, _ in table.rows] == ["SA", *(f"Ours, {t}" for t in tasks), "Ours"]
+    assert [cells[0].mean for _, cells in table.rows] == [None, 50.0, None, 25.0, 37.5]
 
 
 def test_a_declared_table_lists_its_own_jobs_that_no_row_shows(tmp_path):
