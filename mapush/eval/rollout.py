@@ -7,6 +7,7 @@ by the timeout (paper IV-B-1). Seeds give the mean +- std.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 import sys
@@ -173,7 +174,10 @@ def evaluate(
                 return out
             remove_leftovers(out_dir)  # temp files of evaluations that were killed
             per_seed = _record_episodes(cfg, checkpoint, episodes, seeds, out_dir, name, live, video)
-            made = summarize(cfg, str(checkpoint), episodes, seeds, per_seed) | {"overrides": list(overrides)}
+            made = summarize(cfg, str(checkpoint), episodes, seeds, per_seed) | {
+                "overrides": list(overrides),
+                "config_sha256": config_digest(cfg),
+            }
             write_json(out, made | provenance())
     except BaseException:
         if created:  # a refused evaluation (another agent count, a bad video setting) leaves nothing behind
@@ -182,18 +186,31 @@ def evaluate(
     return out
 
 
+def config_digest(cfg: dict) -> str:
+    """SHA-256 of an evaluation's composed config, less how it is logged: what a group file an override names (a
+    rule set, a tracker) held when it ran."""
+    text = json.dumps({k: v for k, v in cfg.items() if k != "log"}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def same_evaluation(path: Path, cfg: dict, checkpoint: str, episodes: int, seeds: list[int], overrides) -> bool:
-    """Whether the eval record at `path` is of this very evaluation: the same checkpoint, episodes, seeds and
-    overrides (records made before they recorded their overrides are not), its robots walked by the same
-    locomotion policy. What it does not record (the code that ran it) it shares with the stage's own identity,
-    which is its config too (`experiments/stages.py`)."""
+    """Whether the eval record at `path` is of this very evaluation: the same checkpoint, episodes, seeds,
+    overrides and composed config (records made before they recorded the last two are not), its robots walked by
+    the same locomotion policy. The code that ran it is not recorded: as a stage's identity is its config
+    (`experiments/stages.py`), so is an evaluation's."""
     try:
         record = json.loads(Path(path).read_text())
     except (OSError, ValueError):  # none, or damaged: evaluate again
         return False
     lowlevel = cfg.get("lowlevel")
     walker = backend_of(lowlevel).policy_fingerprint(lowlevel) if lowlevel and level_of(cfg).walks_robots else None
-    made = {"checkpoint": checkpoint, "episodes": episodes, "seeds": list(seeds), "overrides": list(overrides)}
+    made = {
+        "checkpoint": checkpoint,
+        "episodes": episodes,
+        "seeds": list(seeds),
+        "overrides": list(overrides),
+        "config_sha256": config_digest(cfg),
+    }
     return isinstance(record, dict) and all(record.get(k) == v for k, v in made.items()) and (
         record.get("lowlevel_policy") == (walker or None))  # summarize records none where it walks none  # fmt: skip
 

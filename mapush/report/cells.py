@@ -81,6 +81,8 @@ def fall_cell(results: list[JobResult], **match) -> Cell:
             return None
         if evaluation.events is not None:
             return evaluation.events["falls"].episode_share
+        if evaluation.also.get("rules") == "original":  # a fall ends no episode there: its exceptions tell nothing
+            return None
         return None if evaluation.exceptions is None else evaluation.exceptions.get(FALL, 0.0)
 
     return _gathered(matching(results, **match), share, lambda r, change: change.concerns(r, eval_name), 100.0)

@@ -238,58 +238,59 @@ def claim_sentence(finding: Finding, spread: str = "") -> str:
 def judge_along(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, columns: dict,
                 noun: str = "column") -> Finding:  # fmt: skip
     """An `along: columns` claim judged in each column in order (each a `noun`: "rung"): it holds False from the
-    first column where it does not hold, True where it held in every column measured, None where it was judged in
-    none or, failing nowhere, was within the seeds' spread somewhere. The finding names that column and the ones
-    before it where it held, and those where a cell it reads is empty (not measured) or not applicable."""
+    first column measured where it does not hold, True where it held in every column measured, None where it was
+    judged in none or, failing nowhere, lay within the seeds' spread (or was not judged, a cell of one seed) in
+    some. The finding names that column, those before it where it held, and those where it lay within the spread,
+    was not judged, was not measured (a cell it reads is empty) or is not applicable; `first_failing_<noun>` and
+    `unmeasured_before` count where it failed and how many columns before that went unmeasured."""
     judged, unmeasured, inapplicable = [], [], []
     for k, column in enumerate(columns):
-        at = dataclasses.replace(
-            claim,
-            along=False,
-            left=Ref(claim.left.row, column),
-            right=Ref(claim.right.row, column) if isinstance(claim.right, Ref) else claim.right,
-        )
+        right = Ref(claim.right.row, column) if isinstance(claim.right, Ref) else claim.right
+        at = dataclasses.replace(claim, along=False, left=Ref(claim.left.row, column), right=right)
         read = [at.left, *([at.right] if isinstance(at.right, Ref) else []), *(Ref(r, column) for r in at.among)]
         if not all(cells[r.row, r.column].applicable for r in read):
-            inapplicable.append(columns[column]["label"])
+            inapplicable.append((k, columns[column]["label"]))
         elif not all(cells[r.row, r.column].values for r in read):
-            unmeasured.append(columns[column]["label"])
+            unmeasured.append((k, columns[column]["label"]))
         else:
             judged.append((k, columns[column]["label"], judge(at, cells, rows, columns)))
     failing = next((j for j in judged if j[2].holds is False), None)
-    within = [label for _, label, found in judged if found.holds is None]
+    open_ = [j for j in judged if j[2].holds is None]  # within the spread, or a one-seed cell: not judged
+    within = [label for _, label, found in open_ if "spread" in found.numbers]
+    one_seed = [label for _, label, found in open_ if "spread" not in found.numbers]
     numbers = {f"unmeasured_{noun}s": float(len(unmeasured))}
+    marked = sum(found.numbers.get("cells_made_otherwise", 0.0) for _, _, found in judged)
+    if marked:
+        numbers["cells_made_otherwise"] = marked
     if not judged:
         holds, text, names = None, f"not measured at any {noun}", {}
     elif failing is not None:
         k, label, found = failing
         held = [other for j, other, f in judged if j < k and f.holds]
+        before = [other for j, other in unmeasured if j < k]
         holds, names = False, {**found.names, "at": label}
-        text = (
-            f"first stops holding at {label} ({_body(claim, found)}); held at {', '.join(held)}"
-            if held
-            else (f"first stops holding at {label} ({_body(claim, found)}); held at no {noun} before it")
-        )
-        numbers |= {f"first_failing_{noun}": float(k), **found.numbers}
+        first = f"first stops holding at {label}" if not before else f"stops holding at {label}, the first {noun} "
+        first += "" if not before else f"measured to fail ({', '.join(before)} before it not measured)"
+        text = f"{first} ({_body(claim, found)}); held at {', '.join(held) if held else f'no {noun} before it'}"
+        numbers |= {f"first_failing_{noun}": float(k), "unmeasured_before": float(len(before)), **found.numbers}
     else:
         _, label, found = judged[-1]
-        holds, names = (None if within else True), {**found.names, "at": label}
-        text = (
-            f"holds at every {noun} measured (at {label}: {_body(claim, found)})"
-            if not within
-            else (f"fails at no {noun} measured, but is within the seeds' spread at {', '.join(within)}")
-        )
-    if within and failing is not None:
-        text += f"; within the seeds' spread at {', '.join(within)}"
-    for what, where in (("not measured", unmeasured), ("not applicable", inapplicable)):
+        holds, names = (None if open_ else True), {**found.names, "at": label}
+        text = f"holds at every {noun} measured (at {label}: {_body(claim, found)})" if not open_ else (
+            f"fails at no {noun} measured")  # fmt: skip
+    for what, where in (("within the seeds' spread", within), ("not judged (a cell of one seed)", one_seed),
+                        ("not measured", [label for _, label in unmeasured]),
+                        ("not applicable", [label for _, label in inapplicable])):  # fmt: skip
         text += f"; {what} at {', '.join(where)}" if where else ""
+    text += f" (cells marked {OTHERWISE}: an earlier recipe's)" if marked else ""
     return Finding(f"{claim.text}: {text}", holds, numbers, claim=claim.text, op=claim.op, names=names,
                    key=claim.key, about=claim.about)  # fmt: skip
 
 
 def _body(claim: Claim, found: Finding) -> str:
-    """A one-column finding's words without the claim and its verdict: what it rests on."""
-    body = found.text.removeprefix(f"{claim.text}: ")
-    for verdict in ("holds: ", "does not hold: ", "within the seeds' spread: "):
+    """A one-column finding's words without the claim, its verdict and its † words (the along finding says them
+    once): what it rests on."""
+    body = found.text.removeprefix(f"{claim.text}: ").removesuffix(f" (cells marked {OTHERWISE}: an earlier recipe's)")
+    for verdict in ("holds: ", "does not hold: "):
         body = body.removeprefix(verdict)
     return body

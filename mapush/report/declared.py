@@ -37,7 +37,7 @@ KEYS = {"name", "title", "row_header", "jobs", "rows", "columns", "note", "claim
         "eval_labels", "panels", "column_noun"}  # fmt: skip
 ROW_KEYS = {"id", "label", "match", "name", "evals"}
 EACH_KEYS = {"each", "id", "label", "name", "match"}
-AXIS_FIELDS = {"agents": "num_agents", "task": "task", "method": "method", "seed": "seed"}
+AXIS_FIELDS = {"agents": "num_agents", "task": "task", "method": "method"}
 """A row per value of a sweep axis (`each: agents`): the field of a job's result each axis fills."""
 COLUMN_KEYS = {"id", "label", "eval", "metric", "scale", "digits", "paper", "stage"}
 MATCH_KEYS = ["experiment", "table", "budget", "method", "method_label", "task", "num_agents", "seed", "rules",
@@ -58,7 +58,7 @@ RESERVED = {"budget": "the budget checks", "reading": "the readings"}
 """Finding keys of a declared table's own that no claim may take."""
 METRICS = ["success_rate", "completion_time", "completion_time_s", "path_length_m", FALLS, CURVE_END, REACH]
 """What a column may read."""
-ROW_READING_KEYS = {"metric", "label", "scale"}
+ROW_READING_KEYS = {"metric", "label"}
 """A reading of each row in every column (`readings: [{metric: falls, label: ...}]`): an evaluation's number."""
 
 
@@ -74,7 +74,7 @@ def load(path: Path) -> dict:
             raise BadInput(f"{where}: {key} {decl[key]!r} is not {KIND_WORDS[kind]}; valid: {KIND_WORDS[kind]}")
     checked_keys(f"{where} jobs", decl["jobs"], set(MATCH_KEYS))
     rows, columns = {}, {}
-    for row in [r for given in decl["rows"] for r in _each(where, given, decl["jobs"].get("table"))]:
+    for row in [r for given in decl["rows"] for r in _each(where, given, decl["jobs"].get("table"))]:  # templates
         checked_keys(f"{where} row", row, ROW_KEYS, {"id", "match"})
         _new_id(f"{where} row", row["id"], rows)
         checked_keys(f"{where} row {row['id']!r} match", row["match"], set(MATCH_KEYS))
@@ -111,9 +111,14 @@ def load(path: Path) -> dict:
     reserved = dict(RESERVED)
     for name in decl["readings"]:
         if isinstance(name, dict):
-            reading = checked_keys(f"{where} reading", name, ROW_READING_KEYS, {"metric", "label"})
+            reading = checked_keys(f"{where} reading", name, ROW_READING_KEYS, ROW_READING_KEYS)
             checked_choice(f"{where} reading metric", reading["metric"], [m for m in METRICS if m not in
                                                                           (REACH, CURVE_END)])  # fmt: skip
+            if not isinstance(reading["label"], str) or reading["metric"] in reserved:
+                why = "is read twice" if reading["metric"] in reserved else f"label {reading['label']!r} is not text"
+                raise BadInput(
+                    f"{where} reading {reading['metric']!r}: {why}; valid: one reading a metric, a text label"
+                )
             reserved[reading["metric"]] = "a reading"
         else:
             checked_choice(f"{where} reading", name, list(columns))
@@ -139,6 +144,11 @@ def _each(where: str, row, table: str | None) -> list:
         return [row]
     checked_keys(f"{where} row", row, EACH_KEYS, {"each", "id", "label"})
     checked_choice(f"{where} row each", row["each"], list(AXIS_FIELDS))
+    match = checked_keys(f"{where} row {row['id']!r} match", row.get("match") or {}, set(MATCH_KEYS))
+    if AXIS_FIELDS[row["each"]] in match:
+        raise BadInput(f"{where} row {row['id']!r}: match sets {AXIS_FIELDS[row['each']]!r}, the field `each` fills; "
+                       "valid: one of the two")  # fmt: skip
+    table = match.get("table", table)  # the row's own jobs' table, as its `evals` take it
     values = experiment_axis(table, row["each"])
     if not values:
         raise BadInput(f"{where} row each: no experiment of table {table!r} sweeps {row['each']!r}; valid: an axis "
@@ -148,19 +158,21 @@ def _each(where: str, row, table: str | None) -> list:
         if isinstance(text, list):
             return [filled(part, value) for part in text]
         _fields(f"{where} row {row['id']!r}", text, ["value", "s"])
-        return str(text).format(value=value, s="" if value == 1 else "s")
+        try:
+            return str(text).format(value=value, s="" if value == 1 else "s")
+        except (ValueError, TypeError) as err:  # a conversion or format spec the value does not take
+            raise BadInput(f"{where} row {row['id']!r}: {text!r} is no template ({err}); valid: text with "
+                           "{value} and {s}") from None  # fmt: skip
 
-    made = []
-    for value in values:
-        one = {key: filled(row[key], value) for key in ("id", "label", "name") if key in row}
-        made.append({**one, "match": {**(row.get("match") or {}), AXIS_FIELDS[row["each"]]: value}})
-    return made
+    return [{**{key: filled(row[key], value) for key in ("id", "label", "name") if key in row},
+             "match": {**match, AXIS_FIELDS[row["each"]]: value}} for value in values]  # fmt: skip
 
 
 def _new_id(where: str, given, taken: dict) -> str:
     """A row's or column's id: a string no other row or column of its kind has."""
     if not isinstance(given, str) or given in taken:
-        raise BadInput(f"{where}: id {given!r} is {'taken' if given in taken else 'not text'}; valid: a new string")
+        why = "not text" if not isinstance(given, str) else "taken"
+        raise BadInput(f"{where}: id {given!r} is {why}; valid: a new string")
     return given
 
 
@@ -286,13 +298,15 @@ def _reading(decl: dict, name: str, cells: dict, words: dict) -> Finding:
 
 
 def _row_readings(decl: dict, reading: dict, jobs: list[JobResult]) -> list[Finding]:
-    """Each row's number of `reading["metric"]` in every column it stands in (its evaluation there), under the
-    table; a row with none is left out."""
+    """Each row's number of `reading["metric"]` in every column it stands in (its evaluation there; columns of one
+    evaluation once, by the first's label, at its scale), under the table; a row with none is left out."""
     found = []
+    by_eval = {}
+    for col in decl["columns"].values():
+        if col.get("eval") is not None:
+            by_eval.setdefault(col["eval"], col)
     for row in decl["rows"].values():
-        read = {"metric": reading["metric"], "scale": reading.get("scale", 1.0)}
-        cells = {col["label"]: _cell(jobs, row, {**col, **read})[0]
-                 for col in decl["columns"].values() if col.get("eval") is not None}  # fmt: skip
+        cells = {col["label"]: _cell(jobs, row, {**col, "metric": reading["metric"]})[0] for col in by_eval.values()}
         shown = {label: cell for label, cell in cells.items() if cell.applicable}
         if any(cell.values for cell in shown.values()):
             text = f"{reading['label']}, {row['name']}: " + ", ".join(f"{k} {c.text()}" for k, c in shown.items())

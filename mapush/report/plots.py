@@ -136,9 +136,10 @@ def ladder_plot(table: Table, path: Path) -> None:
     plt = _pyplot()
 
     cells_of = {tuple(labels): cells for labels, cells in table.rows}
-    fig, axes = plt.subplots(1, len(table.panels), figsize=(5.5 * len(table.panels), 3.8), sharey=True, squeeze=False)
+    panels = table.panels or {"": [labels for labels, _ in table.rows]}  # no panels declared: one of every row
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 3.8), sharey=True, squeeze=False)
     rungs = range(len(table.columns))
-    for ax, (panel, members) in zip(axes[0], table.panels.items(), strict=True):
+    for ax, (panel, members) in zip(axes[0], panels.items(), strict=True):
         for labels in members:
             pts = [(k, c.mean, c.std) for k, c in zip(rungs, cells_of[tuple(labels)], strict=True) if c.values]
             if pts:

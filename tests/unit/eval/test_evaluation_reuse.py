@@ -28,6 +28,10 @@ def test_a_finished_evaluation_is_kept_and_any_other_is_made_again(run_copy, mon
     ]:
         with pytest.raises(AssertionError, match="evaluated again"):
             rollout.evaluate(run_copy, episodes, seeds, overrides, name="main", reuse=reuse)
+    record["config_sha256"] = "0" * 64  # what an override named held otherwise then (a rule set edited since)
+    first.write_text(json.dumps(record))
+    with pytest.raises(AssertionError, match="evaluated again"):
+        rollout.evaluate(run_copy, 2, [0], ["log.eval_episodes=0"], name="main", reuse=True)
     first.write_text(first.read_text()[:40])  # cut: made again, not read
     with pytest.raises(AssertionError, match="evaluated again"):
         rollout.evaluate(run_copy, 2, [0], ["log.eval_episodes=0"], name="main", reuse=True)

@@ -138,6 +138,20 @@ def test_every_shipped_declaration_loads_and_is_a_table_of_mapush_tables():
         ),
         ("{id: sa, label: SA, match: {method: sa}}", "{each: task, id: 'a{n}', label: A}", "unknown field 'n'"),
         (
+            "{id: sa, label: SA, match: {method: sa}}",
+            "{each: task, id: a, label: A, match: [1]}",
+            "row 'a' match: expected a mapping",
+        ),
+        (
+            "{id: sa, label: SA, match: {method: sa}}",
+            "{each: task, id: a, label: A, match: {task: cuboid}}",
+            "match sets 'task', the field `each` fills",
+        ),
+        ("{id: sa, label: SA, match: {method: sa}}", "{each: task, id: 'a{value!x}', label: A}", "is no template"),
+        ("{id: sa, label: SA", "{id: [sa], label: SA", "row: id ['sa'] is not text; valid: a new string"),
+        ("note: A toy.", "readings: [{metric: falls, label: [x]}]", "reading 'falls': label ['x'] is not text"),
+        ("note: A toy.", "readings: [{metric: falls, label: F}, {metric: falls, label: G}]", "'falls': is read twice"),
+        (
             "  - claim: SA stays under 25 %",
             "  - claim: SA stays under 25 %\n    key: falls",
             "key 'falls' about '' is a reading's",

@@ -93,6 +93,34 @@ def test_a_difference_within_the_seeds_spread_leaves_a_well_above_claim_unsettle
     assert "within the seeds' spread at 0: orig. friction" in two.text
 
 
+def test_a_claim_on_one_seed_is_not_judged_against_a_spread_nor_called_within_it():
+    table = ladder([r for r in results() if r.seed == 0])
+    two = table.finding("two_above_one")
+    assert two.holds is None and "within the seeds' spread" not in two.text
+    assert "not judged (a cell of one seed) at 0: orig. friction" in two.text
+
+
+def test_a_failure_after_unmeasured_rungs_is_not_called_the_first():
+    made = [r for r in results(ours_cylinder_strict=0.5)]
+    for r in made:
+        for name in ("original_friction", "main", "fall_ends"):
+            r.evals.pop(name, None)
+    ours = ladder(made).finding("ours_at_least", "Cylinder")
+    assert ours.holds is False and ours.numbers["first_failing_rung"] == 3.0
+    assert ours.numbers["unmeasured_before"] == 3.0 and "first stops holding" not in ours.text
+
+
+def test_an_along_claim_counts_the_cells_of_an_earlier_recipe_it_read_on_every_rung():
+    from mapush.experiments.results import Change
+
+    made = results()
+    for r in made:
+        if r.table == "main" and r.task == "cuboid" and r.method == "sa":
+            r.made_otherwise = Change(kind="stages", text="its stages changed", stages=("high",))
+    sa = ladder(made).finding("sa_below", "Cuboid")
+    assert sa.numbers["cells_made_otherwise"] == 6.0 and sa.text.endswith("(cells marked \u2020: an earlier recipe's)")
+
+
 def test_a_rung_without_evaluations_is_named_not_measured_and_listed_missing():
     made = [r for r in results() if not (r.table == "scale" and r.num_agents == 4)]
     for r in made:
