@@ -6,9 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from omegaconf import DictConfig, OmegaConf
-
-from mapush.errors import BadInput
+from omegaconf import OmegaConf
 
 ORIGINAL_COLLISION_M = {"tblock": 0.27}
 """m; the original's base-distance collision threshold per task where it was not 0.25 (its task configs)."""
@@ -20,9 +18,11 @@ def original_collision_m(task: str) -> float:
     return ORIGINAL_COLLISION_M.get(str(task), 0.25)
 
 
-def rules_at_level(conf_dir: Path, rules: str, level: str) -> DictConfig:
-    """What rules `rules` change at level `level`: `conf_dir`/rules/level/<rules>_<level>.yaml."""
-    path = conf_dir / "rules" / "level" / f"{rules}_{level}.yaml"
-    if not path.is_file():
-        raise BadInput(f"rules={rules} has no file for level {level!r} ({path}); valid: one per level")
-    return OmegaConf.load(path)
+def rule_keys(conf_dir: Path, level: str) -> list[str]:
+    """The keys of the level node that some rule set sets at level `level` (other than `rules`, its name): what
+    swapping the rules of a saved run has to take from the new set (`config.overrides`)."""
+    keys: set[str] = set()
+    for path in sorted((conf_dir / "rules" / "level").glob(f"*_{level}.yaml")):
+        if path.stem.split("_", 1)[1] == level:  # strict_mid.yaml, not strict_mid_long.yaml
+            keys |= set(OmegaConf.load(path)) - {"rules"}
+    return sorted(keys)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import copy
 import re
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -11,7 +12,7 @@ from omegaconf import DictConfig, OmegaConf
 from mapush.config import groups
 from mapush.config.groups import GROUPS, check_groups
 from mapush.errors import BadInput, first_line
-from mapush.rules import rules_at_level
+from mapush.rules import rule_keys
 from mapush.schema import check_config
 
 SWAPPABLE_GROUPS = ("task", "level", "rules", "lowlevel", "reward")
@@ -60,13 +61,33 @@ def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
     return cfg
 
 
+def _with_rules(level: DictConfig, rules: str) -> DictConfig:
+    """A saved run's level node under the rule set `rules`: every key some rule set sets at its level
+    (`rules.rule_keys`: the episode endings, what a fallen robot does, the exceptions) as the level composed with
+    `rules` has it (its file, the files it extends, the rule set's), the rest as the run had it. Merging the rule
+    set's file alone would keep what the run's own set had changed: mapush's set changes nothing of the level's
+    file, so `rules=strict` on a run trained under the original's kept the original's endings."""
+    from mapush.config.compose import compose_config  # composing imports this module
+
+    name = str(level.name)
+    composed = compose_config([f"level={name}", f"rules={rules}"]).level  # interpolations left to the run's config
+    level = copy.deepcopy(level)
+    for key in rule_keys(groups.CONF_DIR, name):
+        if key in composed:
+            level[key] = copy.deepcopy(composed[key])
+        elif key in level:
+            del level[key]
+    level.rules = rules
+    return level
+
+
 def _swap_group(cfg: DictConfig, group: str, name: str) -> None:
     """`group=name` on a saved config: the group's file replaces its node (the rules: merged into the level's)."""
     if group not in SWAPPABLE_GROUPS:
         raise BadInput(f"group {group!r} cannot change for an existing run; valid: {', '.join(SWAPPABLE_GROUPS)}")
     check_groups([f"{group}={name}"])
-    if group == "rules":  # the rules at the run's level, merged into its level node
-        cfg.level = OmegaConf.merge(cfg.level, rules_at_level(groups.CONF_DIR, name, str(cfg.level.name)))
+    if group == "rules":  # the rules at the run's level, as composing the level with them gives them
+        cfg.level = _with_rules(cfg.level, name)
     else:
         cfg[group] = OmegaConf.load(groups.CONF_DIR / group / f"{name}.yaml")
 

@@ -30,6 +30,7 @@ def still_valid(
         record, overrides = result.evals.get(name), eval_overrides(cfg, name)
         holds = record and applies(spec, cfg.method.name) and eval_stage(cfg, spec) in same
         holds = holds and (overrides if record.overrides is None else record.overrides) == overrides
+        holds = holds and not swapped_rules_unfixed(record)
         if holds and not _walker_changed(record, result, cfg, name, planned):
             kept[name] = dataclasses.replace(record, overrides=list(overrides))
     curve, spec = result.curve, budget_of(cfg).get("curve")
@@ -75,6 +76,14 @@ def same_stages(result: JobResult, cfg: DictConfig, planned: list[PlannedStage],
     return {s.name for s in planned if made.get(s.name) in stages.stands_for(root, s.identity)}
 
 
+def swapped_rules_unfixed(record: Evaluation) -> bool:
+    """Whether an evaluation swapped its stage's rules (`rules=...` among its recorded overrides) before a swap
+    took every ending from the new rule set (`config.overrides`, 2026-12-07): until then `rules=strict` on a stage
+    trained under the original's kept the original's endings. Its record, made before evaluations recorded their
+    composed config (`config_sha256`), is stale."""
+    return any(o.startswith("rules=") for o in record.overrides or []) and "config_sha256" not in record.also
+
+
 def _about_evaluation(name: str, what: str) -> Change:
     """A change that concerns one evaluation only."""
     return Change("evaluation", f"evaluation {name!r} {what}", evaluation=name)
@@ -107,6 +116,8 @@ def result_changes(
         recorded, now = result.evals[name].overrides, eval_overrides(cfg, name)
         if recorded is not None and recorded != now:
             return _about_evaluation(name, f"changed ({' '.join(recorded) or 'as trained'} -> {' '.join(now)})")
+        if swapped_rules_unfixed(result.evals[name]):
+            return _about_evaluation(name, "swapped its rules before a swap took the new set's endings (2026-12-07)")
         if _walker_changed(result.evals[name], result, cfg, name, planned):
             if result.evals[name].lowlevel_policy is None:
                 return _about_evaluation(name, "recorded no locomotion policy")

@@ -41,6 +41,18 @@ def test_the_original_hierarchy_ends_only_on_success_timeout_or_a_diverged_simul
     assert strict.get("fallen_robots", "act") == "act"  # the env's default: a fallen robot acts (and ends it)
 
 
+@pytest.mark.parametrize("level", ["high", "high_nav", "mid", "mid_long"])
+@pytest.mark.parametrize(("trained", "evaluated"), [("original", "strict"), ("strict", "original")])
+def test_swapping_the_rules_of_a_saved_run_gives_the_level_as_composing_it_under_them_would(level, trained, evaluated):
+    """`mapush eval RUN rules=...` (the ladder's rungs): the oracle is Hydra composing the level under the new
+    rules. Merging the rule set's file alone kept the old set's endings (`rules=strict` is the level's own file)."""
+    from mapush.config import apply_overrides
+
+    run = compose_config([f"level={level}", "task=tblock", f"rules={trained}"])  # a run's config, as saved
+    swapped = to_plain(apply_overrides(run, [f"rules={evaluated}"]))["level"]
+    assert swapped == _level(f"level={level}", "task=tblock", f"rules={evaluated}")
+
+
 def test_an_unknown_rule_set_is_refused_with_the_choices(cli):
     proc = cli("eval", "shipped:cuboid", "rules=lenient", "--episodes", "1")
     assert proc.returncode == 2

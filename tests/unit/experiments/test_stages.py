@@ -588,6 +588,24 @@ def test_result_changes_names_a_changed_budget_and_nothing_for_the_same_plan(tmp
     assert str(changes).startswith("its stages changed (high: ") and "mid" not in str(changes)
 
 
+def test_an_evaluation_that_swapped_rules_before_the_swap_took_the_new_sets_endings_is_stale(tmp_path):
+    from mapush.experiments.staleness import still_valid
+
+    cfg = _job_cfg(tmp_path)
+    made = _fake_result(cfg, {stage.name: stage.identity for stage in planned_stages(cfg)})
+    for name, record in made["evals"].items():
+        record["overrides"] = list(stage_plan.eval_overrides(cfg, name))
+    swapped = [name for name, record in made["evals"].items() if "rules=strict" in record["overrides"]]
+    assert swapped, "the ladder's rungs of mapush's rules evaluate the main jobs under rules=strict"
+    change = result_changes(JobResult(**made), cfg, planned_stages(cfg))
+    assert change.kind == "evaluation" and change.evaluation in swapped and "swapped its rules" in str(change)
+    kept, _ = still_valid(JobResult(**made), cfg, planned_stages(cfg))
+    assert set(kept) == set(made["evals"]) - set(swapped)  # the others hold: a rerun evaluates these alone
+    for name in swapped:
+        made["evals"][name]["config_sha256"] = "a" * 64  # made since: the swap took the new set's endings
+    assert result_changes(JobResult(**made), cfg, planned_stages(cfg)) is None
+
+
 def test_a_result_made_otherwise_than_planned_now_is_told_from_its_job_dir(tmp_path):
     # what `mapush tables` marks: the job is composed again from its dir's axes, experiment, budget and overrides
     cfg = _job_cfg(tmp_path)
