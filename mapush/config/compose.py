@@ -13,7 +13,6 @@ from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import groups
 from mapush.config.groups import check_groups, search_dirs
-from mapush.config.overrides import run_dir_override, unknown_key_message
 from mapush.errors import BadInput, first_line
 from mapush.schema import check_config, task_weight_names
 
@@ -22,6 +21,21 @@ COMPOSED_KEPT = 256
 _COMPOSED: dict[tuple, tuple[tuple, DictConfig]] = {}
 """Configs this process composed, by overrides and config name, with the config files' stamp they were composed
 from: a sweep plans each stage more than once, and Hydra reads every file anew each time (about 0.4 s)."""
+
+
+def run_dir_override(override: str) -> str:
+    """Hydra's `hydra.run.dir=DIR` (a Hydra app's run dir) is mapush's `train.run_dir=DIR`."""
+    key, sep, value = override.partition("=")
+    return f"train.run_dir={value}" if sep and key.lstrip("+") == "hydra.run.dir" else override
+
+
+def unknown_key_message(base: DictConfig, full_key: str) -> str:
+    """The refusal of a key `base` lacks, naming the keys its parent has."""
+    parent, _, _leaf = full_key.rpartition(".")
+    node = OmegaConf.select(base, parent) if parent else base
+    valid = ", ".join(str(k) for k in node) if isinstance(node, DictConfig) else "(none)"
+    where = f" under '{parent}'" if parent else ""
+    return f"unknown config key {full_key!r}; valid keys{where}: {valid}"
 
 
 def compose_config(

@@ -10,6 +10,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import DictConfig, OmegaConf
 
 from mapush.config import groups
+from mapush.config.compose import compose_config, unknown_key_message
 from mapush.config.groups import GROUPS, check_groups
 from mapush.errors import BadInput, first_line
 from mapush.rules import rule_keys
@@ -22,21 +23,6 @@ SWAPPABLE_GROUPS = ("task", "level", "rules", "lowlevel", "reward")
 def overrides_name(overrides: list[str]) -> str:
     """A file-name tag for an evaluation's overrides (`task.num_agents=3` -> `task.num_agents-3`); '' for none."""
     return re.sub(r"[^A-Za-z0-9.+-]+", "-", "_".join(overrides)).strip("-")
-
-
-def run_dir_override(override: str) -> str:
-    """Hydra's `hydra.run.dir=DIR` (a Hydra app's run dir) is mapush's `train.run_dir=DIR`."""
-    key, sep, value = override.partition("=")
-    return f"train.run_dir={value}" if sep and key.lstrip("+") == "hydra.run.dir" else override
-
-
-def unknown_key_message(base: DictConfig, full_key: str) -> str:
-    """The refusal of a key `base` lacks, naming the keys its parent has."""
-    parent, _, _leaf = full_key.rpartition(".")
-    node = OmegaConf.select(base, parent) if parent else base
-    valid = ", ".join(str(k) for k in node) if isinstance(node, DictConfig) else "(none)"
-    where = f" under '{parent}'" if parent else ""
-    return f"unknown config key {full_key!r}; valid keys{where}: {valid}"
 
 
 def apply_overrides(cfg: DictConfig, overrides: list[str]) -> DictConfig:
@@ -67,8 +53,6 @@ def _with_rules(level: DictConfig, rules: str) -> DictConfig:
     `rules` has it (its file, the files it extends, the rule set's), the rest as the run had it. Merging the rule
     set's file alone would keep what the run's own set had changed: mapush's set changes nothing of the level's
     file, so `rules=strict` on a run trained under the original's kept the original's endings."""
-    from mapush.config.compose import compose_config  # composing imports this module
-
     name = str(level.name)
     composed = compose_config([f"level={name}", f"rules={rules}"]).level  # interpolations left to the run's config
     level = copy.deepcopy(level)
