@@ -93,10 +93,10 @@ class PhaseClock:
 def iteration_breakdown(env, runner, iterations: int, log_path: Path) -> dict:
     """Time `iterations` PPO iterations of `runner` (with its logging) and split each into phases.
 
-    The rollout (rsl-rl's collection time) splits into physics, the low level's commands (the Go1's locomotion
+    The rollout splits into physics, the low level's commands (the Go1's locomotion
     policy), the frozen mid level (high levels), the rest of the env's step (observations, rewards, terminations,
-    resets, recorders), policy inference, and bookkeeping (what remains of the collection time: rows, NaN checks,
-    the rollout storage). The update is rsl-rl's learning time (returns and PPO epochs); logging is the logger's
+    resets, recorders), policy inference, and bookkeeping (what remains of the rollout: rows, NaN checks,
+    the rollout storage). The update is the returns and the PPO epochs; logging is the logger's
     per-step and per-iteration work, opening and closing its writer, and checkpoint writes. Returns ms per
     iteration and shares of the measured iteration time; `accounted` is the sum of the phases over that time
     (1.0 = nothing missed).
@@ -113,20 +113,36 @@ def iteration_breakdown(env, runner, iterations: int, log_path: Path) -> dict:
     clock.watch(runner, "save", "checkpoints")
     clock.watch(runner.logger, "init_logging_writer", "logging (writer open and close)")
     clock.watch(runner.logger, "stop_logging_writer", "logging (writer open and close)")
-    collect = {"collect": 0.0, "learn": 0.0}
-    log = runner.logger.log
+    clock.watch(runner.logger, "log", "logging (per iteration)")
+    # rsl-rl times its rollout and update on the wall clock (time.time), which a fresh machine's clock sync may step;
+    # here every phase is on perf_counter: an iteration starts when the writer opens or the previous iteration's
+    # log (or checkpoint) returns, its rollout ends where the returns are computed
+    iteration_start = [0.0]
 
-    @functools.wraps(log)
-    def timed_log(*args, **kwargs):
-        collect["collect"] += kwargs["collect_time"]
-        collect["learn"] += kwargs["learn_time"]
-        start = time.perf_counter()
-        try:
-            return log(*args, **kwargs)
-        finally:
-            clock.seconds["logging (per iteration)"] += time.perf_counter() - start
+    def starts_iteration(owner, method: str) -> None:
+        inner = getattr(owner, method)
 
-    runner.logger.log = timed_log
+        @functools.wraps(inner)
+        def then_restart(*args, **kwargs):
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                iteration_start[0] = time.perf_counter()
+
+        setattr(owner, method, then_restart)
+
+    for owner, method in ((runner.logger, "init_logging_writer"), (runner.logger, "log"), (runner, "save")):
+        starts_iteration(owner, method)
+    clock.watch(runner.alg, "compute_returns", "ppo update")
+    returns = runner.alg.compute_returns
+
+    @functools.wraps(returns)
+    def ends_rollout(*args, **kwargs):
+        clock.seconds["rollout"] += time.perf_counter() - iteration_start[0]
+        return returns(*args, **kwargs)
+
+    runner.alg.compute_returns = ends_rollout
+    clock.watch(runner.alg, "update", "ppo update")
     start = time.perf_counter()
     learn(runner, iterations, log_path)
     total = time.perf_counter() - start
@@ -138,8 +154,8 @@ def iteration_breakdown(env, runner, iterations: int, log_path: Path) -> dict:
         "frozen mid level": s["frozen mid level"],
         "env logic": s["env step"] - inside_env,
         "policy inference": s["policy inference"],
-        "rollout bookkeeping": collect["collect"] - s["env step"] - s["policy inference"] - s["logging (per step)"],
-        "ppo update": collect["learn"],
+        "rollout bookkeeping": s["rollout"] - s["env step"] - s["policy inference"] - s["logging (per step)"],
+        "ppo update": s["ppo update"],
         "logging": sum(v for k, v in s.items() if k.startswith("logging")) + s["checkpoints"],
     }
     return {

@@ -168,6 +168,68 @@ def events_finding(arms: dict[str, list[JobResult]], eval_name: str, what: str) 
     return [Finding(text, numbers=numbers, key="events", about=what)]
 
 
+def success_time(success_rate: float, completion_time: float) -> float | None:
+    """The mean completion time of the successful episodes alone, as a fraction of the timeout, from a success rate
+    (0-1) and a C.T. that counts every failure as the timeout: C.T. = (1 - S.R.) + S.R. x t. None with no success.
+    It puts the paper's C.T. and ours on one footing: how fast the pushes that succeed are."""
+    if success_rate <= 0:
+        return None
+    return (completion_time - (1.0 - success_rate)) / success_rate
+
+
+FALL_RUNG = "fall_ends"
+"""The evaluation that repeats a job's `main` one under the original's rules but ends an episode at a robot's fall
+(the ladder's rung 2, conf/ladder/rungs.yaml)."""
+
+
+def fall_split(results: list[JobResult], eval_name: str = "main") -> tuple[dict[str, float], int]:
+    """Where a fall takes a hierarchy's successes: the share (%) of episodes with a robot's fall, and the S.R. (%) of
+    the episodes without one and of those with one (means over the seeds that have them), and how many seeds.
+
+    Read from the evaluation `eval_name`, where a fall ends no episode, and its `FALL_RUNG` twin: the same seeds,
+    so the same episodes up to a first fall. There an episode succeeds only if no robot fell before it did, so its
+    S.R. is the share of episodes that succeed without a fall. A seed whose two evaluations count another share of
+    episodes with a fall did not run the same episodes and is left out."""
+    shares, free, fell = [], [], []
+    for r in results:
+        whole, ended = r.evals.get(eval_name), r.evals.get(FALL_RUNG)
+        if not (whole and ended and whole.events and ended.events and "falls" in whole.events):
+            continue
+        share = whole.events["falls"].episode_share
+        if "falls" not in ended.events or not np.isclose(share, ended.events["falls"].episode_share, atol=1e-6):
+            continue
+        shares.append(100.0 * share)
+        if share < 1.0:
+            free.append(100.0 * ended.success_rate / (1.0 - share))
+        if share > 0.0:
+            fell.append(100.0 * (whole.success_rate - ended.success_rate) / share)
+    numbers = {"fall_share": float(np.mean(shares))} if shares else {}
+    numbers |= {"sr_without_fall": float(np.mean(free))} if free else {}
+    numbers |= {"sr_with_fall": float(np.mean(fell))} if fell else {}
+    return numbers, len(shares)
+
+
+def fall_split_finding(arms: dict[str, list[JobResult]], what: str, paper_sr: float | None = None) -> list[Finding]:
+    """One line: for each arm whose jobs have both evaluations (`fall_split`), the S.R. of its episodes without a
+    robot's fall and with one, beside the paper's S.R. where it has one: how much of a shortfall the falls make."""
+    parts, numbers = [], {}
+    for label, results in arms.items():
+        split, seeds = fall_split(results)
+        if not seeds:
+            continue
+        free, fell = split.get("sr_without_fall"), split.get("sr_with_fall")
+        words = [f"{label}: a fall in {split['fall_share']:.0f} % of episodes"]
+        words += [f"without one {free:.1f} % succeed"] if free is not None else []
+        words += [f"with one {fell:.1f} %"] if fell is not None else []
+        parts.append(", ".join(words) + f" ({counted(seeds, 'seed')})")
+        numbers |= {f"{label} {k}": v for k, v in split.items()}
+    if not parts:
+        return []
+    paper = f"; the paper: {paper_sr:.1f} % in all" if paper_sr is not None else ""
+    text = f"{what}: S.R. without and with a robot's fall (main against {FALL_RUNG}): {'; '.join(parts)}{paper}"
+    return [Finding(text, numbers=numbers, key="fall_split", about=what)]
+
+
 def named_shares(shares: dict[str, float]) -> str:
     """`exception_shares`' kinds as text: "robot_tilt 20 %, robot_collision 2 %"."""
     return ", ".join(f"{kind} {share:.0f} %" for kind, share in shares.items())

@@ -10,7 +10,16 @@ from mapush.config import group_file
 from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
-from mapush.report.cells import PAPER, collect, events_finding, exception_shares, matching, named_shares
+from mapush.report.cells import (
+    PAPER,
+    collect,
+    events_finding,
+    exception_shares,
+    fall_split_finding,
+    matching,
+    named_shares,
+    success_time,
+)
 from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import known_physics, team_needed
 
@@ -105,15 +114,6 @@ LEGGED_GAP = 10.0
 stand for the Go1 (mapush's own bar: the paper has no tracker)."""
 
 
-def success_time(success_rate: float, completion_time: float) -> float | None:
-    """The mean completion time of the successful episodes alone, as a fraction of the timeout, from a success rate
-    (0-1) and a C.T. that counts every failure as the timeout: C.T. = (1 - S.R.) + S.R. x t. None with no success.
-    It puts the paper's C.T. and ours on one footing: how fast the pushes that succeed are."""
-    if success_rate <= 0:
-        return None
-    return (completion_time - (1.0 - success_rate)) / success_rate
-
-
 def _main_findings(mine: list[JobResult], paper: dict, task: str, longer: list[JobResult] = ()) -> list[Finding]:
     """What holds on one object: Ours against the paper, the baselines, path following and the legged robots;
     `longer`: the main table's jobs of other budgets, read where a learner stayed below the pusher."""
@@ -125,6 +125,9 @@ def _main_findings(mine: list[JobResult], paper: dict, task: str, longer: list[J
     lines += _baselines(mine, paper, task, sr, mean) + _learned_against_scripted(mine, paper, task, sr, longer)
     lines += _ours_otherwise(mine, paper, task, mean) + _legged_baseline(mine, paper, task)
     arms = {paper["labels"][m]: matching(mine, method=m, task=task) for m in paper["methods"]}
+    lines += fall_split_finding(
+        arms, paper["task_labels"][task], paper["success_rate"].get(task, {}).get("ours", [None])[0]
+    )
     return lines + _exceptions_finding(mine, paper, task) + events_finding(arms, "main", paper["task_labels"][task])
 
 

@@ -163,7 +163,7 @@ def _one_mass_findings(
     than the seeds' spread, a cell measures how the range trains as well as what a team needs."""
     found = []
     for (task, n), cells in rows:
-        references = _one_mass_references(results, variant, task, int(n))
+        references = _one_mass_references(results, variant, task, int(n), {_rules(r) for r in mine})
         own_physics = known_physics(references)  # trained at the object's own mass
         if own_physics is None:
             continue
@@ -208,12 +208,22 @@ def _weighed(
     return Finding(text, gap <= spread, numbers, key=where[0], about=where[1])
 
 
-def _one_mass_references(results: list[JobResult], variant: str, task: str, robots: int) -> list[JobResult]:
-    """Other tables' jobs of `task` with `robots` whose mid level trained at the object's own mass and carries its
-    own curve, made as their experiment plans now; one per mid-level run (a job another sweep took counts once)."""
+def _rules(result: JobResult) -> str:
+    """The rules a job trained under; a job made before jobs recorded them trained under mapush's, now `strict`."""
+    return result.rules or "strict"
+
+
+def _one_mass_references(
+    results: list[JobResult], variant: str, task: str, robots: int, rules: set[str]
+) -> list[JobResult]:
+    """Other tables' jobs of `task` with `robots` whose mid level trained at the object's own mass, under the study's
+    `rules`, and carries its own curve, made as their experiment plans now; one per mid-level run (a job another
+    sweep took counts once). A mid level trained under other rules learned other pushes: no reference."""
     picked = {}
     for r in matching(results, variant=variant, task=task, num_agents=robots):
         if r.table == "team" or "mid" not in (r.stage_curves or {}) or curve_findings.curve_made_otherwise(r, "mid"):
+            continue
+        if _rules(r) not in rules:
             continue
         if any(sets_mass(str(o)) for o in r.overrides):  # trained at another mass
             continue

@@ -374,10 +374,10 @@ def test_tables_from_fixture_runs_hold_hand_computed_cells_and_mark_the_missing(
     reference = found["reference_mid", "3 robots"]  # 72.0 +- 2.0 against 72.3: short by 0.3, within the std
     assert reference["holds"] is None
     assert reference["numbers"] == pytest.approx({"left": 72.0, "right": 72.3, "spread": 2.0})
-    assert "2 robots / S.R. (%) \u2191: no finished job" in side["missing"]
+    assert "2 robots: no finished job: S.R. (%) \u2191, C.T. \u2193, Falls (%) \u2193" in side["missing"]
     assert "| 6 | \u2014 | \u2014 | \u2014 | \u2014 |" in scale  # planned, not run
-    assert "6 robots / S.R. (%) \u2191: no finished job" in side["missing"]
-    assert "1 robot / Mid level S.R. (%) \u2191: no curve of the mid level" in side["missing"]
+    assert "6 robots: no finished job: S.R. (%) \u2191, C.T. \u2193, Falls (%) \u2193" in side["missing"]
+    assert "1 robot: no curve of the mid level: Mid level S.R. (%) \u2191" in side["missing"]
     assert (out / "scale_quick.png").stat().st_size > 1000
 
 

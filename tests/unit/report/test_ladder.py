@@ -3,6 +3,8 @@ hand (known numbers)."""
 
 from __future__ import annotations
 
+import pytest
+
 from mapush.experiments.results import JobResult
 from mapush.report import declared
 from mapush.report.formats import NOT_APPLICABLE, keys
@@ -163,3 +165,22 @@ def test_a_tables_setup_line_counts_its_jobs_by_rules_and_low_level():
     assert line.startswith("Trained under rules=original on lowlevel=tracker (3 jobs); 1 job made before jobs ")
     assert setup_of([JobResult(rules="strict", lowlevel="go1")]) == "Trained under rules=strict on lowlevel=go1 (1 job)"
     assert setup_of([]) == ""
+
+
+def test_the_fall_split_reads_the_successes_without_a_fall_off_the_fall_ends_rung():
+    from mapush.report.cells import fall_split, fall_split_finding
+
+    def record(sr: float, fell: float) -> dict:
+        return {"success_rate": sr, "events": {"falls": {"episode_share": fell}}}
+
+    same = JobResult(evals={"main": record(0.6, 0.5), "fall_ends": record(0.4, 0.5)}, job_dir="a")
+    # 40 % succeed with no fall, of the 50 % without one: 80 %; the other 20 % succeed of the 50 % with one: 40 %
+    split, seeds = fall_split([same])
+    assert seeds == 1 and split == pytest.approx({"fall_share": 50.0, "sr_without_fall": 80.0, "sr_with_fall": 40.0})
+    other = JobResult(evals={"main": record(0.6, 0.5), "fall_ends": record(0.1, 0.7)}, job_dir="b")
+    assert fall_split([same, other])[1] == 1  # another share of episodes fell: not the same episodes, left out
+    never = JobResult(evals={"main": record(0.9, 0.0), "fall_ends": record(0.9, 0.0)}, job_dir="c")
+    assert fall_split([never])[0] == pytest.approx({"fall_share": 0.0, "sr_without_fall": 90.0})
+    (line,) = fall_split_finding({"Ours": [same]}, "Cylinder", 71.2)
+    assert line.key == "fall_split" and line.numbers["Ours sr_without_fall"] == pytest.approx(80.0)
+    assert fall_split_finding({"Ours": [JobResult(evals={"main": record(0.6, 0.5)}, job_dir="d")]}, "Cylinder") == []

@@ -566,6 +566,8 @@ def test_the_team_table_weighs_a_policy_trained_over_the_masses_against_one_trai
     below = [one_mass("sa,seed=0", "runs/mid0", (0.1, 0.1, 0.15, 0.3))]  # 15 % at 6M: below the range's 20 %
     close = team_table(team + below, "quick").finding("own_mass", "cuboid / 1 robot")
     assert close.holds is True and close.numbers["gap_points"] == pytest.approx(-5.0)  # the range gains 5 points
+    other_rules = [dataclasses.replace(r, rules="original") for r in references[:2]]  # the study's: strict
+    assert not [f for f in team_table(team + other_rules, "quick").findings if f.key == "own_mass"]
 
 
 def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluated_mass_alone():
