@@ -240,8 +240,8 @@ def judge_along(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, co
     """An `along: columns` claim judged in each column in order (each a `noun`: "rung"): it holds False from the
     first column measured where it does not hold, True where it held in every column measured, None where it was
     judged in none or, failing nowhere, lay within the seeds' spread (or was not judged, a cell of one seed) in
-    some. The finding names that column, those before it where it held, and those where it lay within the spread,
-    was not judged, was not measured (a cell it reads is empty) or is not applicable; `first_failing_<noun>` and
+    some. The finding names that column, those before it where it held (if any), and those where it lay within the
+    spread, was not judged, was not measured (a cell it reads is empty) or is not applicable; `first_failing_<noun>` and
     `unmeasured_before` count where it failed and how many columns before that went unmeasured."""
     judged, unmeasured, inapplicable = [], [], []
     for k, column in enumerate(columns):
@@ -269,9 +269,10 @@ def judge_along(claim: Claim, cells: dict[tuple[str, str], Cell], rows: dict, co
         held = [other for j, other, f in judged if j < k and f.holds]
         before = [other for j, other in unmeasured if j < k]
         holds, names = False, {**found.names, "at": label}
-        first = f"first stops holding at {label}" if not before else f"stops holding at {label}, the first {noun} "
-        first += "" if not before else f"measured to fail ({', '.join(before)} before it not measured)"
-        text = f"{first} ({_body(claim, found)}); held at {', '.join(held) if held else f'no {noun} before it'}"
+        first = f"first stops holding at {label}"
+        if before:  # the columns before it went unmeasured: it may fail there too
+            first = f"stops holding at {label}, the first {noun} measured to fail"
+        text = f"{first} ({_body(claim, found)})" + (f"; held at {', '.join(held)}" if held else "")
         numbers |= {f"first_failing_{noun}": float(k), "unmeasured_before": float(len(before)), **found.numbers}
     else:
         _, label, found = judged[-1]
