@@ -20,7 +20,8 @@ PAPER["main"]["labels"] = {m: str(group_file("method", m).label) for m in PAPER[
 
 def setup_of(results: list[JobResult]) -> str:
     """The rules and low level the `results`' stages were trained under, with how many jobs each: "Trained under
-    rules=original on lowlevel=tracker (12 jobs)"; results made before jobs recorded them are counted apart."""
+    rules=original on lowlevel=tracker (12 jobs)"; results made before jobs recorded them are counted apart, as
+    rules=strict."""
     counts: dict[str, int] = {}
     for r in results:
         if r.rules:
@@ -30,8 +31,8 @@ def setup_of(results: list[JobResult]) -> str:
     before = sum(not r.rules for r in results)
     if before:
         parts.append(
-            f"{counted(before, 'job')} made before jobs recorded their rules and low level (2026-12-06): mapush's "
-            "own rules then, now rules=strict"
+            f"rules=strict ({counted(before, 'job')} made before jobs recorded their rules and low level on "
+            "2026-12-06, under mapush's own rules, named so since)"
         )
     return f"Trained under {'; '.join(parts)}" if parts else ""
 

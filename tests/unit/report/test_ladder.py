@@ -162,7 +162,9 @@ def test_a_tables_setup_line_counts_its_jobs_by_rules_and_low_level():
     from mapush.report.cells import setup_of
 
     line = setup_of([JobResult(rules="original", lowlevel="tracker")] * 3 + [JobResult()])
-    assert line.startswith("Trained under rules=original on lowlevel=tracker (3 jobs); 1 job made before jobs ")
+    assert line.startswith(
+        "Trained under rules=original on lowlevel=tracker (3 jobs); rules=strict (1 job made before "
+    )
     assert setup_of([JobResult(rules="strict", lowlevel="go1")]) == "Trained under rules=strict on lowlevel=go1 (1 job)"
     assert setup_of([]) == ""
 
