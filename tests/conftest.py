@@ -75,10 +75,11 @@ def run_cli():
 
 @pytest.fixture
 def cli(tmp_path):
-    """`cli("train", "debug=smoke", ...)`: run the real `mapush` command in a temp dir; a CompletedProcess."""
+    """`cli("train", "debug=smoke", ...)`: run the real `mapush` command in a temp dir; a CompletedProcess. Its
+    `timeout` guards against a hang, it times nothing."""
 
-    def run(*args) -> subprocess.CompletedProcess:
-        return _run_cli(list(args), cwd=tmp_path)
+    def run(*args, timeout: float = 240) -> subprocess.CompletedProcess:
+        return _run_cli(list(args), cwd=tmp_path, timeout=timeout)
 
     return run
 

@@ -114,7 +114,8 @@ def test_a_shipped_hierarchy_reproduces_its_recorded_evaluation(cli, name, tmp_p
     before = {p: p.stat().st_mtime_ns for p in shipped_run(name).rglob("*")}
     episodes, seed = str(recorded["episodes"]), str(first["seed"])
     # no episode file: writing one takes an eighth of the evaluation and changes none of its figures
-    proc = cli("eval", f"shipped:{name}", "--episodes", episodes, "--seeds", seed, "log.eval_episodes=0")
+    # 50 whole-hierarchy episodes: minutes on a 2-core machine that other tests share; the timeout guards a hang
+    proc = cli("eval", f"shipped:{name}", "--episodes", episodes, "--seeds", seed, "log.eval_episodes=0", timeout=900)
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "runs" / "shipped" / shipped_run(name).relative_to(PACKAGE) / "eval.json"
     result = json.loads(out.read_text())
