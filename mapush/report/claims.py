@@ -294,4 +294,6 @@ def _body(claim: Claim, found: Finding) -> str:
     body = found.text.removeprefix(f"{claim.text}: ").removesuffix(f" (cells marked {OTHERWISE}: an earlier recipe's)")
     for verdict in ("holds: ", "does not hold: "):
         body = body.removeprefix(verdict)
+    if found.op in EXTREMES and "column" in found.names:  # the along finding names the column already
+        body = body.replace(f", {found.names['column']} (means over seeds)", " (means over seeds)")
     return body
