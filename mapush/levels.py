@@ -16,8 +16,8 @@ from omegaconf import DictConfig
 
 from mapush.config import sim_threads, to_plain
 from mapush.envs.high import HighPushEnv
-from mapush.envs.low import TRACKING_ERRORS, LocomotionEnv
-from mapush.envs.low_events import locomotion_model
+from mapush.envs.locomotion import TRACKING_ERRORS, LocomotionEnv
+from mapush.envs.locomotion_events import locomotion_model
 from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv
@@ -61,7 +61,7 @@ def go1_layout(cfg: dict) -> Go1Layout:
 
 
 LEVELS = {
-    "low": Level(LocomotionEnv, layout=go1_layout, walks_robots=False, tracking=TRACKING_ERRORS),
+    "locomotion": Level(LocomotionEnv, layout=go1_layout, walks_robots=False, tracking=TRACKING_ERRORS),
     "mid": Level(MidPushEnv, width_hint=agents_hint),
     "mid_long": Level(LongMidPushEnv),
     "high": Level(HighPushEnv, frozen_mid=True, planner=True),

@@ -7,7 +7,10 @@ that no other module tests for an old form.
 
 A run's saved `config.yaml` in an old form is rewritten to today's form when it is read (`upgrade_run_config`):
 the low level's disturbances, once keys of `level.randomize` and `level.eval_*`, are event terms since
-2026-11-29 (`level.events`, `level.eval_events`).
+2026-11-29 (`level.events`, `level.eval_events`); the level that trains the Go1's locomotion policy, once
+`level=low` (`mapush/envs/low.py`, its rewards in `mapush/rewards/locomotion.py`), is `level=locomotion` since
+2026-12-07 (`RENAMED_LEVELS`, `RENAMED_MODULES`; the rewards are in `mapush/rewards/legged.py`), so that "low" names
+one thing: the robot under the mid level (`lowlevel=`).
 
 Two kinds of change live in the config instead, as keys whose absence has a meaning:
 - a key added after runs were made, with the value that leaves those runs as they were (`UNSET_LATER_KEYS`): at
@@ -108,9 +111,20 @@ RETIRED_KEYS = ("log.video.max_frames",)
 time now, not frames at one per env step (saved runs hold 1500: 30 s, shorter than a high-level episode)."""
 
 
+RENAMED_LEVELS = {"low": "locomotion"}
+"""`level.name`s a run saved that are another name today."""
+RENAMED_MODULES = {
+    "mapush.envs.low:": "mapush.envs.locomotion:",
+    "mapush.envs.low_events:": "mapush.envs.locomotion_events:",
+    "mapush.rewards.locomotion:": "mapush.rewards.legged:",
+}
+"""Term modules (`func: module:name`) a run saved as a renamed level that moved with it, by their prefix."""
+
+
 def upgrade_run_config(run: DictConfig) -> DictConfig:
-    """A run's saved config in today's form (`RETIRED_KEYS`, `EVENT_KEYS`); a config already in it is returned as
-    it is."""
+    """A run's saved config in today's form (`RETIRED_KEYS`, `RENAMED_LEVELS`, `RENAMED_MODULES`, `EVENT_KEYS`); a
+    config already in it is returned as it is."""
+    run = _renamed(run)
     if any(OmegaConf.select(run, key, default=None) is not None for key in RETIRED_KEYS):
         run = run.copy()
         for key in RETIRED_KEYS:
@@ -132,6 +146,30 @@ def upgrade_run_config(run: DictConfig) -> DictConfig:
         else:
             OmegaConf.update(run, f"{target}.{param}", value, force_add=True)
     return run
+
+
+def _renamed(run: DictConfig) -> DictConfig:
+    """`run` with a renamed level's name and its terms' moved modules (any section's: the level's, the reward's) as
+    they are today; a copy where it changes."""
+    level = run.get("level")
+    if level is None or level.get("name") not in RENAMED_LEVELS:
+        return run
+    plain = OmegaConf.to_container(run, resolve=False)
+
+    def moved(node):
+        if isinstance(node, dict):
+            return {key: moved(value) for key, value in node.items()}
+        if isinstance(node, list):
+            return [moved(value) for value in node]
+        if isinstance(node, str):
+            for old, new in RENAMED_MODULES.items():
+                if node.startswith(old):
+                    return new + node[len(old) :]
+        return node
+
+    plain = moved(plain)
+    plain["level"]["name"] = RENAMED_LEVELS[plain["level"]["name"]]
+    return OmegaConf.create(plain)
 
 
 def absent_meant(saved: DictConfig, cfg: DictConfig) -> None:

@@ -15,7 +15,7 @@ import torch
 from omegaconf import OmegaConf
 
 from mapush.config import compose_config
-from mapush.envs.low import LocomotionState
+from mapush.envs.locomotion import LocomotionState
 from mapush.experiments.results import JobResult
 from mapush.logging.mcap_files import CPU_TAG
 from mapush.logging.metrics import McapLogWriter

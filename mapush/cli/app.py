@@ -16,7 +16,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     help=(
         "Hierarchical multi-agent quadruped pushing (MAPush) on MuJoCo and rsl-rl.\n\n"
-        "low: Go1 locomotion (mapush train level=low; a trained one ships)\n"
+        "locomotion: the low level, a Go1 walking to velocity commands (mapush train level=locomotion; one ships)\n"
         "mid: pushing the object to subgoals (mapush train; level=mid by default)\n"
         "high: subgoals along a planned path (mapush train level=high mid=RUN_DIR)\n\n"
         "mapush sweep trains a method's levels in turn and evaluates them (the tables)."

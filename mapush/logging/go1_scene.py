@@ -1,4 +1,4 @@
-"""Foxglove messages of the low level (`level=low`): one Go1 on flat ground, drawn from its MuJoCo geoms.
+"""Foxglove messages of the low level (`level=locomotion`): one Go1 on flat ground, drawn from its MuJoCo geoms.
 
 Every geom of the model (trunk box, hip cylinders, thigh and calf capsules, foot spheres) is drawn in `world` at
 its simulated pose each step, so the 3D panel shows the gait itself. Two arrows above the trunk compare the

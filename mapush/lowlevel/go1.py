@@ -1,11 +1,11 @@
-"""The `go1` low level: every robot is the 12-DoF Go1, walked by a learned locomotion policy (`level=low`).
+"""The `go1` low level: every robot is the 12-DoF Go1, walked by a learned locomotion policy (`level=locomotion`).
 
 Each policy step (50 Hz) the backend builds every robot's proprioceptive observation (`proprioception`, the same
 function the locomotion env trains on), runs the frozen locomotion policy on all E x A robots at once, and writes
 joint targets for the PD servos, which run at every 5 ms physics step. Robots can fall (`tilt`), which the pushing
 levels count as an exception.
 
-The policy is a TorchScript `policy.pt` exported by `mapush train level=low`: `lowlevel.policy=PATH`, or
+The policy is a TorchScript `policy.pt` exported by `mapush train level=locomotion`: `lowlevel.policy=PATH`, or
 `shipped:NAME` of one shipped in the package (`mapush/lowlevel/pretrained/NAME/`, slim run dirs written by
 `mapush ship`), or null for `shipped:go1` (`policy_of`).
 """
@@ -99,9 +99,9 @@ def locomotion_policy_file(path: str | Path | None) -> Path:
     if target.is_dir():
         target = target / "policy.pt"
     if not target.is_file():
-        hint = "train one with `mapush train level=low`, then lowlevel.policy=RUN_DIR/policy.pt"
+        hint = "train one with `mapush train level=locomotion`, then lowlevel.policy=RUN_DIR/policy.pt"
         what = f"lowlevel.policy={str(path)!r} does not exist" if path else "no pretrained Go1 policy is shipped yet"
-        raise BadInput(f"{what}; valid: a policy.pt of a level=low run ({hint})")
+        raise BadInput(f"{what}; valid: a policy.pt of a level=locomotion run ({hint})")
     return target
 
 
@@ -115,7 +115,7 @@ def load_locomotion_policy(path: str | Path | None):
         first = first_line(err)
         raise BadInput(
             f"lowlevel.policy={str(target)!r} is not a TorchScript policy ({first}); valid: a policy.pt of a "
-            "level=low run"
+            "level=locomotion run"
         ) from None
     policy.eval()
     return policy

@@ -1,6 +1,6 @@
-"""The locomotion env's scene (`level=low`): one Go1 on flat ground with the servo settings of the go1 backend, and
-the free loads and the teammates its events ask for (`level.events.load`, `level.events.teammates`;
-`mapush/envs/low_events.py`)."""
+"""The locomotion env's scene (`level=locomotion`): one Go1 on flat ground with the servo settings of the go1
+backend, and the free loads and the teammates its events ask for (`level.events.load`, `level.events.teammates`;
+`mapush/envs/locomotion_events.py`)."""
 
 from __future__ import annotations
 

@@ -25,7 +25,7 @@ def test_unknown_task(train_bad):
 
 
 def test_unknown_level(train_bad):
-    assert_bad_input(train_bad("level=flying"), "'flying'", "high", "low", "mid")
+    assert_bad_input(train_bad("level=flying"), "'flying'", "high", "locomotion", "mid")
 
 
 def test_unknown_reward_term(train_bad):

@@ -19,9 +19,9 @@ def wide(monkeypatch):
 def test_the_top_help_says_what_each_level_is_and_which_command_trains_it(cli, wide):
     proc = cli("--help")
     assert proc.returncode == 0, proc.stderr
-    lines = {m.group(1): m.group(0) for m in re.finditer(r"\b(low|mid|high): .*", proc.stdout)}
-    assert set(lines) == {"low", "mid", "high"}, proc.stdout
-    assert "Go1 locomotion" in lines["low"] and "level=low" in lines["low"]
+    lines = {m.group(1): m.group(0) for m in re.finditer(r"\b(locomotion|mid|high): .*", proc.stdout)}
+    assert set(lines) == {"locomotion", "mid", "high"}, proc.stdout
+    assert "Go1" in lines["locomotion"] and "level=locomotion" in lines["locomotion"]
     assert "push" in lines["mid"] and "subgoal" in lines["mid"]
     assert "planned path" in lines["high"] and "level=high" in lines["high"]
     assert all("mapush train" in line for line in lines.values())

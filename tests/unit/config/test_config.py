@@ -84,7 +84,7 @@ def test_a_run_config_takes_current_defaults_only_for_level_settings_it_lacks(tm
 
     from mapush.config import load_run_config
 
-    saved = to_plain(compose_config(["level=low", "level.commands.vx=[-0.3,0.3]"]))
+    saved = to_plain(compose_config(["level=locomotion", "level.commands.vx=[-0.3,0.3]"]))
     del saved["level"]["eval_commands"]["turn_fraction"]  # a run made before the setting existed
     OmegaConf.save(OmegaConf.create(saved), tmp_path / "config.yaml")
     cfg = load_run_config(tmp_path)

@@ -65,7 +65,7 @@ def test_a_low_level_run_saved_before_events_reads_its_disturbances_as_event_par
     its event's param, and today's `func` for it; its own values win over today's defaults."""
     from mapush.config import compose_config, load_run_config, to_plain
 
-    saved = to_plain(compose_config(["level=low"]))
+    saved = to_plain(compose_config(["level=locomotion"]))
     level = saved["level"]
     level.pop("events"), level.pop("eval_events")
     level["randomize"].update(
@@ -80,7 +80,7 @@ def test_a_low_level_run_saved_before_events_reads_its_disturbances_as_event_par
     assert events.lean.params == {"force_n": 50.0, "duration_s": 1.5, "interval_s": 3.0}
     assert events.teammates.params.count == 3 and events.teammates.params.lean_mps == [0.0, 0.7]
     assert events.teammates.params.heading_rad == 0.2  # a param the old run did not save: today's default
-    assert events.lean.func == "mapush.envs.low_events:Lean"
+    assert events.lean.func == "mapush.envs.locomotion_events:Lean"
     assert upgraded["eval_events"] == {
         "push": {"velocity_mps": 0.2},
         "lean": {"force_n": 30.0},
@@ -103,3 +103,40 @@ def test_the_shipped_strong_go1_reads_the_disturbances_it_was_trained_under():
     assert events.lean.params.force_n == 50.0
     assert events.load.params.fraction == 0.5 and events.teammates.params.fraction == 0.5
     assert list(events.teammates.params.lean_mps) == [0.0, 0.7]
+
+
+def _funcs(node) -> list[str]:
+    """Every term's `func` under a config node."""
+    if isinstance(node, dict):
+        own = [node["func"]] if isinstance(node.get("func"), str) else []
+        return own + [f for value in node.values() for f in _funcs(value)]
+    return [f for value in node for f in _funcs(value)] if isinstance(node, list) else []
+
+
+@pytest.mark.parametrize("policy", ["go1", "go1_strong"])
+def test_a_run_saved_as_level_low_loads_as_the_locomotion_level_with_importable_terms(policy):
+    """The shipped Go1 policies were trained as `level=low` (mapush/envs/low.py) and ship their config as saved."""
+    import importlib
+
+    from mapush.config import load_run_config
+    from mapush.levels import LEVELS
+    from mapush.rundir import SHIPPED_LOWLEVEL
+
+    saved = OmegaConf.to_container(OmegaConf.load(SHIPPED_LOWLEVEL / policy / "config.yaml"))
+    old = [f for f in _funcs(saved) if f.startswith(("mapush.envs.low", "mapush.rewards.locomotion:"))]
+    assert saved["level"]["name"] == "low" and old
+    loaded = OmegaConf.to_container(load_run_config(SHIPPED_LOWLEVEL / policy))
+    assert loaded["level"]["name"] == "locomotion" and loaded["level"]["name"] in LEVELS
+    new = [f for f in _funcs(loaded) if f.startswith(("mapush.envs.locomotion", "mapush.rewards.legged:"))]
+    assert len(new) >= len(old) and not [f for f in _funcs(loaded) if f in old]
+    for func in _funcs(loaded):
+        module, _, name = func.partition(":")
+        assert hasattr(importlib.import_module(module), name), func
+
+
+def test_a_config_in_todays_form_is_not_renamed():
+    from mapush.config import compose_config
+    from mapush.migrations import upgrade_run_config
+
+    today = compose_config(["level=locomotion"])
+    assert upgrade_run_config(today) is today

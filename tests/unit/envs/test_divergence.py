@@ -13,7 +13,7 @@ import pytest
 import torch
 
 from mapush.config import compose_config, to_plain
-from mapush.envs.low import LocomotionEnv
+from mapush.envs.locomotion import LocomotionEnv
 from mapush.envs.mid import MidPushEnv
 
 NAN = float("nan")
@@ -26,7 +26,7 @@ def mid_cfg() -> dict:
 
 @pytest.fixture(scope="module")
 def low_cfg() -> dict:
-    return to_plain(compose_config(["debug=smoke", "level=low"]))
+    return to_plain(compose_config(["debug=smoke", "level=locomotion"]))
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ import pytest
 import torch
 from stand_ins import stand_in_env
 
-from mapush.rewards import locomotion
+from mapush.rewards import legged
 
 
 def column(*values: float) -> np.ndarray:
@@ -25,7 +25,7 @@ def test_lin_vel_tracking_is_a_gaussian_kernel_of_the_planar_error():
         commands=torch.tensor([[1.0, 0.0, 0.7], [0.3, -0.2, 0.0]]),
         lin_vel=torch.tensor([[0.5, 0.0, 0.3], [0.3, -0.2, 0.0]]),
     )
-    value = locomotion.lin_vel_tracking(env, sigma=0.25)
+    value = legged.lin_vel_tracking(env, sigma=0.25)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(math.exp(-1.0), 1.0), abs=1e-6)
 
@@ -33,7 +33,7 @@ def test_lin_vel_tracking_is_a_gaussian_kernel_of_the_planar_error():
 def test_lin_vel_tracking_adds_the_squared_errors_of_both_axes():
     # command (0.5, 0.5), velocity (0, -0.5): |e|^2 = 0.25 + 1 = 1.25; sigma 0.5 -> exp(-2.5) = 0.082085
     env = stand_in_env(commands=torch.tensor([[0.5, 0.5, 0.0]]), lin_vel=torch.tensor([[0.0, -0.5, 0.0]]))
-    assert locomotion.lin_vel_tracking(env, sigma=0.5).numpy() == pytest.approx(column(math.exp(-2.5)), abs=1e-6)
+    assert legged.lin_vel_tracking(env, sigma=0.5).numpy() == pytest.approx(column(math.exp(-2.5)), abs=1e-6)
 
 
 def test_yaw_rate_tracking_is_a_gaussian_kernel_of_the_yaw_rate_error():
@@ -43,7 +43,7 @@ def test_yaw_rate_tracking_is_a_gaussian_kernel_of_the_yaw_rate_error():
         commands=torch.tensor([[0.0, 0.0, 0.5], [1.0, 1.0, -1.0]]),
         ang_vel=torch.tensor([[2.0, 3.0, 0.0], [0.0, 0.0, 0.0]]),
     )
-    value = locomotion.yaw_rate_tracking(env, sigma=0.25)
+    value = legged.yaw_rate_tracking(env, sigma=0.25)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(math.exp(-1.0), math.exp(-4.0)), abs=1e-6)
 
@@ -51,7 +51,7 @@ def test_yaw_rate_tracking_is_a_gaussian_kernel_of_the_yaw_rate_error():
 def test_vertical_velocity_is_the_squared_vertical_speed():
     # v_z 0.3 -> 0.09, v_z -0.2 -> 0.04; the planar velocity does not count
     env = stand_in_env(lin_vel=torch.tensor([[1.0, 1.0, 0.3], [0.0, 0.0, -0.2]]))
-    value = locomotion.vertical_velocity(env)
+    value = legged.vertical_velocity(env)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(0.09, 0.04), abs=1e-6)
 
@@ -59,7 +59,7 @@ def test_vertical_velocity_is_the_squared_vertical_speed():
 def test_roll_pitch_rate_is_the_squared_roll_and_pitch_rates():
     # (0.3, 0.4) -> 0.09 + 0.16 = 0.25, the yaw rate 5 ignored; (0, 0) -> 0 whatever the yaw rate
     env = stand_in_env(ang_vel=torch.tensor([[0.3, 0.4, 5.0], [0.0, 0.0, -2.0]]))
-    value = locomotion.roll_pitch_rate(env)
+    value = legged.roll_pitch_rate(env)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(0.25, 0.0), abs=1e-6)
 
@@ -68,7 +68,7 @@ def test_tilt_is_sin_squared_of_the_tilt_angle():
     # pitched 60 deg: g = (sin 60, 0, -cos 60) -> sin^2 60 = 0.75; upright g = (0, 0, -1) -> 0
     a = math.radians(60.0)
     env = stand_in_env(gravity=torch.tensor([[math.sin(a), 0.0, -math.cos(a)], [0.0, 0.0, -1.0]]))
-    value = locomotion.tilt(env)
+    value = legged.tilt(env)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(0.75, 0.0), abs=1e-6)
 
@@ -76,7 +76,7 @@ def test_tilt_is_sin_squared_of_the_tilt_angle():
 def test_tilt_adds_roll_and_pitch():
     # g = (0.3, 0.4, -sqrt(0.75)): 0.09 + 0.16 = 0.25 (a 30 deg lean along a diagonal)
     env = stand_in_env(gravity=torch.tensor([[0.3, 0.4, -math.sqrt(0.75)]]))
-    assert locomotion.tilt(env).numpy() == pytest.approx(column(0.25), abs=1e-6)
+    assert legged.tilt(env).numpy() == pytest.approx(column(0.25), abs=1e-6)
 
 
 def test_joint_torques_is_the_sum_of_squared_torques():
@@ -84,7 +84,7 @@ def test_joint_torques_is_the_sum_of_squared_torques():
     torques = torch.zeros(2, 12)
     torques[0] = 1.0
     torques[1, 2], torques[1, 7] = 3.0, -4.0
-    value = locomotion.joint_torques(stand_in_env(torques=torques))
+    value = legged.joint_torques(stand_in_env(torques=torques))
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(12.0, 25.0), abs=1e-5)
 
@@ -97,7 +97,7 @@ def test_action_rate_is_the_sum_of_squared_action_changes():
     actions = last.clone()
     actions[0] = 0.5
     actions[2, 4] = -0.3
-    value = locomotion.action_rate(stand_in_env(actions=actions, last_actions=last))
+    value = legged.action_rate(stand_in_env(actions=actions, last_actions=last))
     assert value.shape == (3, 1)
     assert value.numpy() == pytest.approx(column(3.0, 0.0, 0.25), abs=1e-6)
 
@@ -109,14 +109,14 @@ def test_foot_slip_counts_only_the_feet_on_the_ground():
         feet_speed=torch.tensor([[1.0, 2.0, 3.0, 4.0], [0.5, 0.5, 0.5, 0.5]]),
         foot_contact=torch.tensor([[True, False, True, False], [True, True, True, True]]),
     )
-    value = locomotion.foot_slip(env)
+    value = legged.foot_slip(env)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(10.0, 1.0), abs=1e-6)
 
 
 def test_foot_slip_of_a_robot_in_the_air_is_zero():
     env = stand_in_env(feet_speed=torch.full((1, 4), 3.0), foot_contact=torch.zeros(1, 4, dtype=torch.bool))
-    assert locomotion.foot_slip(env).numpy() == pytest.approx(column(0.0))
+    assert legged.foot_slip(env).numpy() == pytest.approx(column(0.0))
 
 
 def air_time_env(commands, landed_air_time, first_contact):
@@ -136,7 +136,7 @@ def test_feet_air_time_sums_over_the_feet_landing_this_step():
         [[0.8, 0.0, 0.3, 0.0], [0.0, 0.0, 0.0, 0.9]],
         [[True, False, True, False], [False, False, False, True]],
     )
-    value = locomotion.feet_air_time(env, target_s=0.5)
+    value = legged.feet_air_time(env, target_s=0.5)
     assert value.shape == (2, 1)
     assert value.numpy() == pytest.approx(column(0.1, 0.4), abs=1e-6)
 
@@ -144,7 +144,7 @@ def test_feet_air_time_sums_over_the_feet_landing_this_step():
 def test_feet_air_time_penalizes_short_steps():
     # one foot lands after 0.2 s: 0.2 - 0.5 = -0.3
     env = air_time_env([[0.5, 0.0, 0.0]], [[0.0, 0.2, 0.0, 0.0]], [[False, True, False, False]])
-    assert locomotion.feet_air_time(env, target_s=0.5).numpy() == pytest.approx(column(-0.3), abs=1e-6)
+    assert legged.feet_air_time(env, target_s=0.5).numpy() == pytest.approx(column(-0.3), abs=1e-6)
 
 
 def test_feet_air_time_is_zero_when_the_command_is_to_stand_still():
@@ -155,15 +155,15 @@ def test_feet_air_time_is_zero_when_the_command_is_to_stand_still():
         [[0.8, 0.0, 0.0, 0.0], [0.8, 0.0, 0.0, 0.0]],
         [[True, False, False, False], [True, False, False, False]],
     )
-    assert locomotion.feet_air_time(env, target_s=0.5).numpy() == pytest.approx(column(0.0, 0.3), abs=1e-6)
+    assert legged.feet_air_time(env, target_s=0.5).numpy() == pytest.approx(column(0.0, 0.3), abs=1e-6)
 
 
 def test_feet_air_time_without_landings_is_zero():
     env = air_time_env([[1.0, 0.0, 0.0]], [[0.0, 0.0, 0.0, 0.0]], [[False, False, False, False]])
-    assert locomotion.feet_air_time(env, target_s=0.5).numpy() == pytest.approx(column(0.0))
+    assert legged.feet_air_time(env, target_s=0.5).numpy() == pytest.approx(column(0.0))
 
 
 def test_fall_is_one_on_the_step_the_robot_falls():
-    value = locomotion.fall(stand_in_env(exception=torch.tensor([True, False])))
+    value = legged.fall(stand_in_env(exception=torch.tensor([True, False])))
     assert value.shape == (2, 1)
     assert value.tolist() == [[1.0], [0.0]]

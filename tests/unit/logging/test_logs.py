@@ -589,9 +589,9 @@ def test_the_hl_scene_shows_each_robots_navigation_goal(tmp_path, cfg_for):
 
 
 def test_the_low_level_scene_draws_every_go1_geom_where_the_simulation_has_it(tmp_path, cfg_for):
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
 
-    cfg = cfg_for("level=low", "level.episode_length_s=0.2")
+    cfg = cfg_for("level=locomotion", "level.episode_length_s=0.2")
     env = LocomotionEnv(cfg, num_envs=2, evaluation=True)
     recorder = EpisodeRecorder(tmp_path / "e.mcap", scene_layout(cfg), list(env.rewards.terms), env.exception_names)
     recorder.watch([1], env.dt, "test", from_start=True)

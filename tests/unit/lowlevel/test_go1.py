@@ -21,7 +21,7 @@ from mapush.lowlevel.go1_model import go1_spec, standalone_spec
 from mapush.sim.scene import build_scene, robot_prefixes
 
 GAINS = {k: OmegaConf.load(CONF_DIR / "lowlevel" / "go1.yaml")[k] for k in ("kp", "kd")}
-"""The servo gains the go1 backend and level=low use."""
+"""The servo gains the go1 backend and level=locomotion use."""
 
 
 def test_the_model_compiles_alone_with_the_published_masses_ranges_and_torque_limits():
@@ -126,9 +126,9 @@ def test_it_stands_still_in_the_default_pose_under_pd_for_2_s():
 def test_the_locomotion_env_steps_with_the_documented_shapes_and_randomizes_each_env(cfg_for):
     import torch
 
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
 
-    cfg = cfg_for("level=low")
+    cfg = cfg_for("level=locomotion")
     env = LocomotionEnv(cfg, num_envs=4)
     obs = env.observations()
     assert obs["policy"].shape == (4, 1, 45) and obs["critic"].shape == (4, 1, 48)
@@ -151,9 +151,9 @@ def test_the_locomotion_env_steps_with_the_documented_shapes_and_randomizes_each
 def test_a_held_force_leans_on_the_trunk_for_its_duration_and_moves_it_that_way(cfg_for):
     import torch
 
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
 
-    cfg = cfg_for("level=low", "level.events.push=null")  # no velocity pushes: only the force acts
+    cfg = cfg_for("level=locomotion", "level.events.push=null")  # no velocity pushes: only the force acts
     cfg["level"]["events"]["lean"]["params"] = {"force_n": 80.0, "interval_s": 0.4, "duration_s": 0.2}  # step 20, 10
     leaned = LocomotionEnv(cfg, num_envs=4)
     cfg["level"]["events"]["lean"]["params"]["force_n"] = 0.0
@@ -180,11 +180,11 @@ def test_a_held_force_leans_on_the_trunk_for_its_duration_and_moves_it_that_way(
 
 @pytest.fixture(scope="module")
 def low_run(tmp_path_factory) -> Path:
-    """A 2-iteration `mapush train level=low debug=smoke` run dir, made once through the CLI. Read-only."""
+    """A 2-iteration `mapush train level=locomotion debug=smoke` run dir, made once through the CLI. Read-only."""
     from conftest import _run_cli
 
     root = tmp_path_factory.mktemp("low_runs")
-    proc = _run_cli(["train", "level=low", "debug=smoke", f"train.run_root={root}"], cwd=root)
+    proc = _run_cli(["train", "level=locomotion", "debug=smoke", f"train.run_root={root}"], cwd=root)
     assert proc.returncode == 0, proc.stderr
     return Path(proc.stdout.strip().splitlines()[-1])
 
@@ -252,7 +252,7 @@ def test_lowlevel_go1_with_a_missing_policy_is_one_clear_line(cli, tmp_path):
         f"train.run_root={tmp_path}",
     )
     assert proc.returncode == 2
-    assert "nowhere.pt' does not exist" in proc.stderr and "mapush train level=low" in proc.stderr
+    assert "nowhere.pt' does not exist" in proc.stderr and "mapush train level=locomotion" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and not list(tmp_path.glob("mid/**/config.yaml"))
 
 
@@ -314,9 +314,9 @@ def test_a_short_calibration_of_the_go1_writes_values_within_physical_bounds(cli
 
 
 def test_a_turn_fraction_of_the_commands_turns_on_the_spot(cfg_for):
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
 
-    env = LocomotionEnv(cfg_for("level=low", "level.commands.turn_fraction=0.5"), num_envs=4)
+    env = LocomotionEnv(cfg_for("level=locomotion", "level.commands.turn_fraction=0.5"), num_envs=4)
     commands = env._sample_commands(2000)
     on_the_spot = (commands[:, :2] == 0).all(-1)
     assert 0.45 < on_the_spot.float().mean() < 0.6  # half turn, a tenth of the rest stand still (0.5 + 0.05)
@@ -324,9 +324,9 @@ def test_a_turn_fraction_of_the_commands_turns_on_the_spot(cfg_for):
 
 
 def test_without_a_load_or_teammate_fraction_the_scene_holds_the_go1_alone(cfg_for):
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
 
-    env = LocomotionEnv(cfg_for("level=low"), num_envs=2)
+    env = LocomotionEnv(cfg_for("level=locomotion"), num_envs=2)
     # runs trained before loads and teammates simulate what they trained on
     assert env.model.nq == 7 + 12 and env.model.nu == 12
     assert env.events["load"].bodies == [] and env.events["teammates"].mates is None
@@ -336,11 +336,11 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
     """Two teammate Go1s start left and right of the robot, `gap_m` from its side (measured in its frame with
     MuJoCo's rotation, the oracle), then, the robot told to stand, walk into it and touch it (MuJoCo's contact list);
     in episodes without them they stand parked, far away."""
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
     from mapush.lowlevel.go1_training_scene import MATE_PARKED_XY
 
     cfg = cfg_for(
-        "level=low",
+        "level=locomotion",
         "level.events.teammates.params.fraction=1.0",
         "level.events.teammates.params.lean_mps=[0.3,0.3]",
         "level.commands.zero_fraction=1.0",
@@ -376,17 +376,17 @@ def test_teammates_stand_beside_the_robot_lean_into_it_and_park_where_unused(cfg
         touched += any(("mate" in a) != ("mate" in b) and "world" not in (a, b) for a, b in pairs)
     assert touched >= 4
 
-    unused = cfg_for("level=low", "level.events.teammates.params.fraction=0.5")  # evaluation: none beside it
+    unused = cfg_for("level=locomotion", "level.events.teammates.params.fraction=0.5")  # evaluation: none beside it
     parked = LocomotionEnv(unused, num_envs=64, evaluation=True).events["teammates"]
     xy = parked.mates.read(parked.env.sim.qpos, parked.env.sim.qvel)["xy"]
     assert not parked.used.any() and (np.linalg.norm(xy - np.array(MATE_PARKED_XY), axis=-1) < 2.0).all()
 
 
 def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(cfg_for):
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
     from mapush.lowlevel.go1_training_scene import PARKED_XY
 
-    cfg = cfg_for("level=low", "level.events.load.params.fraction=1.0", "level.events.push=null")
+    cfg = cfg_for("level=locomotion", "level.events.load.params.fraction=1.0", "level.events.push=null")
     load = cfg["level"]["events"]["load"]["params"]
     env = LocomotionEnv(cfg, num_envs=16)
     loads = env.events["load"].bodies
@@ -445,10 +445,10 @@ def test_a_load_stands_ahead_of_the_robot_along_its_command_and_drags_as_drawn(c
 def test_the_shipped_policy_holds_a_command_within_the_tracking_bound(cfg_for, command, error, bound):
     """5 s of one command on flat ground, no pushes: the shipped policy tracks it within 20 % of the command (0.5
     m/s forward: 0.1 m/s; 0.5 rad/s turning: 0.1 rad/s), measured after the first second."""
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
     from mapush.lowlevel.go1 import load_locomotion_policy
 
-    env = LocomotionEnv(cfg_for("level=low"), num_envs=4, evaluation=True)  # evaluation: no pushes
+    env = LocomotionEnv(cfg_for("level=locomotion"), num_envs=4, evaluation=True)  # evaluation: no pushes
     policy = load_locomotion_policy(None)  # lowlevel.policy: null, the shipped one
     env.commands[:] = torch.tensor(command)
     obs, errors = env.observations(), []
@@ -470,7 +470,7 @@ def test_a_run_started_from_another_runs_networks_fine_tunes_them(cli, low_run, 
 
     init = sorted(low_run.glob("model_*.pt"))[-1]
     # a learning rate too small to move the weights: the new run's first checkpoint holds the networks it started from
-    proc = cli("train", "level=low", "debug=smoke", "train.iterations=1", "algo.algorithm.learning_rate=1e-12",
+    proc = cli("train", "level=locomotion", "debug=smoke", "train.iterations=1", "algo.algorithm.learning_rate=1e-12",
                f"train.init_from={low_run}", f"train.run_root={tmp_path}")  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     run = Path(proc.stdout.strip().splitlines()[-1])
@@ -484,15 +484,17 @@ def test_a_run_started_from_another_runs_networks_fine_tunes_them(cli, low_run, 
     mid_run = (smoke_run, "expects a 10-d observation but the config gives 45-d")  # the mid level's local observation
     mid_run = (smoke_run, "expects a 10-d observation but the config gives 45-d")  # the mid level's local observation
     for bad, named in ((tmp_path / "nope", "does not exist"), mid_run):
-        proc = cli("train", "level=low", "debug=smoke", f"train.init_from={bad}", f"train.run_root={tmp_path}/bad")
+        proc = cli(
+            "train", "level=locomotion", "debug=smoke", f"train.init_from={bad}", f"train.run_root={tmp_path}/bad"
+        )
         assert proc.returncode == 2 and named in proc.stderr.strip().splitlines()[-1], proc.stderr
         assert not (tmp_path / "bad").exists()
 
 
 def test_evaluation_replaces_the_event_params_that_eval_events_names(cfg_for):
-    from mapush.envs.low import LocomotionEnv
+    from mapush.envs.locomotion import LocomotionEnv
 
-    cfg = cfg_for("level=low", "level.events.lean.params.force_n=20.0", "level.eval_events.lean.force_n=40.0")
+    cfg = cfg_for("level=locomotion", "level.events.lean.params.force_n=20.0", "level.eval_events.lean.force_n=40.0")
     training, evaluation = LocomotionEnv(cfg, num_envs=2), LocomotionEnv(cfg, num_envs=2, evaluation=True)
     assert training.events["lean"].force_n == 20.0 and evaluation.events["lean"].force_n == 40.0
     assert training.events["push"].velocity == 0.5 and evaluation.events["push"].velocity == 0.0  # low.yaml's
@@ -504,13 +506,19 @@ def test_evaluation_replaces_the_event_params_that_eval_events_names(cfg_for):
     ("override", "named"),
     [
         ("+level.eval_events.shove.force_n=1.0", "level.eval_events.shove names no event; valid: push, lean"),
-        ("+level.eval_events.lean.size_n=1.0", "level.eval_events.lean (mapush.envs.low_events:Lean) takes params"),
-        ("level.events.push.func=mapush.envs.low_events:Shove", "valid in mapush.envs.low_events: Event, Lean, Load"),
+        (
+            "+level.eval_events.lean.size_n=1.0",
+            "level.eval_events.lean (mapush.envs.locomotion_events:Lean) takes params",
+        ),
+        (
+            "level.events.push.func=mapush.envs.locomotion_events:Shove",
+            "valid in mapush.envs.locomotion_events: Event, Lean, Load",
+        ),
         ("level.events.push.func=os:system", "level.events.push.func='os:system' names code outside the trusted"),
     ],
     ids=["unknown-event", "unknown-param", "unknown-class", "untrusted-code"],
 )
 def test_a_bad_event_is_one_line_exit_2_and_makes_no_run_dir(cli, tmp_path, override, named):
-    proc = cli("train", "level=low", "debug=smoke", override, f"train.run_root={tmp_path / 'runs'}")
+    proc = cli("train", "level=locomotion", "debug=smoke", override, f"train.run_root={tmp_path / 'runs'}")
     assert proc.returncode == 2 and named in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "runs").exists()

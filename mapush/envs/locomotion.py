@@ -13,7 +13,7 @@ Commands are drawn per env from `level.commands` at reset and every `resample_s`
 the mid level commands.
 
 Domain randomization: ground and foot friction and an added trunk mass, drawn once per env (`level.randomize`).
-Disturbances are event terms (`level.events`, `low_events.py`): a random push (a change of the trunk's horizontal
+Disturbances are event terms (`level.events`, `locomotion_events.py`): a random push (a change of the trunk's horizontal
 velocity) every few seconds, and optionally a held horizontal force on the trunk (the load of pushing an object or
 being leaned on), a free box or cylinder of the pushing tasks' size ahead of the robot for it to walk into and
 shove unseen, and teammates beside it, shoulder to shoulder as a pushing team's robots are. Evaluation replaces
@@ -30,7 +30,7 @@ import numpy as np
 import torch
 
 from mapush.envs.base import EnvCore
-from mapush.envs.low_events import event_specs, locomotion_model
+from mapush.envs.locomotion_events import event_specs, locomotion_model
 from mapush.errors import BadInput
 from mapush.lowlevel import backend_name
 from mapush.lowlevel import go1_constants as go1
@@ -60,7 +60,7 @@ class LocomotionState:
 
 class LocomotionEnv(EnvCore):
     """E Go1s on flat ground, each tracking its own velocity command; see the module docstring. `events` holds its
-    event terms by name (`low_events.Event`)."""
+    event terms by name (`locomotion_events.Event`)."""
 
     state: LocomotionState
 
@@ -259,7 +259,9 @@ class LocomotionEnv(EnvCore):
     def validate(cls, cfg: dict) -> None:
         """Check the robot and the terms (events included) before anything is built."""
         if backend_name(cfg["lowlevel"]) != "go1":
-            raise BadInput(f"level=low trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1")
+            raise BadInput(
+                f"level=locomotion trains the Go1, not lowlevel={cfg['lowlevel']['name']}; valid: lowlevel=go1"
+            )
         super().validate(cfg)
         event_specs(cfg["level"], evaluation=False)
 

@@ -1,4 +1,5 @@
-"""Low-level (locomotion) reward terms: the usual legged ones. Each returns the unweighted term, (num_envs, 1).
+"""The locomotion level's reward terms (`level=locomotion`): the usual legged ones. Each returns the unweighted term,
+(num_envs, 1).
 
 Terms read `LocomotionEnv`'s `state` after the physics step (body-frame `lin_vel`, `ang_vel`, `gravity`, `torques`,
 foot contacts and speeds), and the env's `commands`, `actions` / `last_actions`, landings and exception flag.

@@ -1,4 +1,4 @@
-"""What disturbs the Go1 of the locomotion env (`level=low`), beside its commands: event terms, named in config.
+"""What disturbs the Go1 of the locomotion env (`level=locomotion`), beside its commands: event terms, named in config.
 
 `level.events` lists them as `{name: {func: module:Class, params}}`, as rewards, observations and exceptions are
 listed; a null entry drops one. In evaluation, `level.eval_events.<name>` replaces some of an event's params (by
