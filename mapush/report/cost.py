@@ -86,15 +86,10 @@ def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: 
     recorded = _recorded_stage_seconds(results)
     training, unreadable, from_records = 0.0, 0, 0
     for copies in groups.values():
-        try:  # a copy holds its original's iterations and, if it resumed, more: the largest is the stage's cost
-            training += max(stage_seconds(path) for path in copies)
-        except (BadInput, OSError):  # missing (an archived job's), or a slim copy without its logs
-            known = [recorded[path] for path in copies if path in recorded]
-            if known:
-                training += max(known)
-                from_records += 1
-            else:
-                unreadable += 1
+        seconds, from_record = _training_seconds(copies, recorded, stage_seconds)
+        training += seconds or 0.0
+        unreadable += seconds is None
+        from_records += from_record
     evaluation, jobs, from_file_times, unknown = 0.0, 0, 0, 0
     first_to_evaluate = _first_to_evaluate(results)
     for k, r in enumerate(results):
@@ -125,6 +120,22 @@ def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: 
         "jobs_taken": sum(1 for r in results[:jobs_now] if r.taken_from),
         "seconds": training + evaluation,
     }
+
+
+def _training_seconds(
+    copies: list[Path], recorded: dict[Path, float], stage_seconds: Callable[[Path], float]
+) -> tuple[float | None, bool]:
+    """One stage's training core-seconds, from its run dir and any adopted copies (a copy holds its original's
+    iterations and, if it resumed, more: the largest is the stage's cost), and whether they came from the jobs'
+    records: those where every copy has one (reading a run's log takes seconds), else the runs' logs, else the
+    records there are (a run gone, as an archived job's, or a slim copy without its logs). None: no way to know."""
+    known = [recorded[path] for path in copies if path in recorded]
+    if len(known) == len(copies):
+        return max(known), True
+    try:
+        return max(stage_seconds(path) for path in copies), False
+    except (BadInput, OSError):
+        return (max(known), True) if known else (None, False)
 
 
 def cost_by(results: list[JobResult], key: str, cores: int) -> dict[str, float]:
@@ -231,7 +242,9 @@ def cost_line(cost: dict) -> str:
         notes.append(f"jobs run elsewhere: {where}; their {cost['other_machines_core_h']:.1f} core-hours are counted "
                      "as measured there, on other cores than this machine's")  # fmt: skip
     if cost.get("stages_from_records"):
-        notes.append(f"{cost['stages_from_records']} stages' training time as their jobs recorded it (runs archived)")
+        notes.append(
+            f"{cost['stages_from_records']} stages' training time as their jobs recorded it when they finished"
+        )
     if cost["unreadable_stages"]:
         notes.append(f"{cost['unreadable_stages']} stage runs not found or unreadable, left out")
     extra = f" ({'; '.join(notes)})" if notes else ""

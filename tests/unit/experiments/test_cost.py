@@ -237,3 +237,14 @@ def test_a_stage_adopted_into_a_new_identity_is_trained_once(tmp_path):
     jobs = [{"stages": {"mid": str(run)}, "eval_wall_s": 0.0, "threads": 1} for run in (old, new)]
     cost = measured_cost(as_results(jobs), cores=2)
     assert (cost["stages"], cost["training_core_h"]) == (1, 1.0)
+
+
+def test_a_stage_every_job_recorded_costs_its_record_and_one_unrecorded_reads_its_log(two_jobs):
+    # the logs say a: 1.5 core-h, b: 2 core-h (as above); the records say otherwise, so which one counted shows
+    recorded = [{**r, "stage_core_s": {"mid": 360.0, "high": 720.0}} for r in two_jobs]
+    cost = measured_cost(as_results(recorded), cores=2)
+    assert (cost["training_core_h"], cost["stages_from_records"], cost["unreadable_stages"]) == (0.3, 2, 0)
+    # one job records only the mid level: the high level is read from its log
+    partial = [{**r, "stage_core_s": {"mid": 360.0}} for r in two_jobs]
+    cost = measured_cost(as_results(partial), cores=2)
+    assert (cost["training_core_h"], cost["stages_from_records"]) == (2.1, 1)
