@@ -173,34 +173,42 @@ def job_made_already(
 
 def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> None:
     """Set each result's `made_otherwise` (`made_otherwise`). Composing every job's experiment takes about a
-    second a job, so what was found of an archived job (whose stages' runs are gone) is kept in `memo` (a JSON
-    file) under the key of everything it depends on: the result's bytes, the store's stage records and every
-    file of the mapush package (its configs, code and shipped policies) with the versions of Hydra and
-    OmegaConf. A job whose runs are here is checked each time (its run configs are among what it depends on);
-    what the memo holds of it is kept for a machine without them."""
+    second a job, so what was found of a job is kept in `memo` (a JSON file) under the key of everything it depends
+    on: the result's bytes, the store's stage records, the saved config of each of its stage runs that is here (a
+    legged evaluation reads which locomotion policy its stage ran with), and every file of the mapush package (its
+    configs, code and shipped policies) with the versions of Hydra and OmegaConf. A job keeps up to `MEMO_KEYS`
+    findings, so that a machine with its runs and one without (the archive in git) each find theirs."""
     package = composing_digest()
     earlier = _read_memo(memo)
     kept, records = {}, {}
     for r in results:
         name = "/".join(job_key(r.job_dir))
-        if any(Path(path).is_dir() for path in r.stages.values()):
-            r.made_otherwise = made_otherwise(r)
-            if name in earlier:  # what a machine without these runs found stays for it
-                kept[name] = earlier[name]
-            continue
         store = Path(r.job_dir).parent.parent
         if store not in records:
             records[store] = files_digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
-        key = hashlib.sha256(
-            "\n".join([package, records[store], files_digest([Path(r.job_dir) / RESULT], store)]).encode()
-        ).hexdigest()
-        found = earlier.get(name)
-        change = Change.from_record(found["change"]) if found and found["key"] == key else made_otherwise(r)
+        runs = [Path(path) / "config.yaml" for path in r.stages.values() if (Path(path) / "config.yaml").is_file()]
+        parts = [package, records[store], files_digest([Path(r.job_dir) / RESULT], store)]
+        parts += [f"{path}\0{hashlib.sha256(path.read_bytes()).hexdigest()}" for path in runs]
+        key = hashlib.sha256("\n".join(parts).encode()).hexdigest()
+        entries = _memo_entries(earlier.get(name))
+        found = next((entry for entry in entries if entry["key"] == key), None)
+        change = Change.from_record(found["change"]) if found else made_otherwise(r)
         r.made_otherwise = change
-        kept[name] = {"key": key, "change": change and dataclasses.asdict(change)}
+        others = [entry for entry in entries if entry["key"] != key][: MEMO_KEYS - 1]
+        kept[name] = [{"key": key, "change": change and dataclasses.asdict(change)}, *others]
     if memo is not None and kept != earlier:
         with contextlib.suppress(OSError):  # a read-only root: checked, not remembered
             write_json(memo, kept)
+
+
+MEMO_KEYS = 2
+"""Findings kept per job in the memo (`made_otherwise_all`), the newest first: with its runs here and without."""
+
+
+def _memo_entries(found) -> list[dict]:
+    """A job's findings in the memo, newest first: a list, or the one mapping memos held before 2026-12-07."""
+    entries = found if isinstance(found, list) else [found]
+    return [e for e in entries if isinstance(e, dict) and isinstance(e.get("key"), str) and "change" in e]
 
 
 CHECKED = "jobs_checked.json"

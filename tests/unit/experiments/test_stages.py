@@ -655,6 +655,32 @@ def test_what_tables_found_of_an_archived_job_is_kept_until_something_it_depends
     assert calls == [str(job_dir)] * 2
 
 
+def test_what_tables_found_of_a_job_whose_runs_are_here_is_kept_until_a_runs_config_changes(tmp_path, monkeypatch):
+    cfg = _job_cfg(tmp_path)
+    now = {stage.name: stage.identity for stage in planned_stages(cfg)}
+    job_dir = tmp_path / "main_smoke_debug-smoke" / "method=sa,seed=0,task=cylinder"
+    job_dir.mkdir(parents=True)
+    result = _fake_result(cfg, now) | {"experiment": "main", "budget": "smoke", "overrides": ["debug=smoke"]}
+    (job_dir / RESULT).write_text(json.dumps(result))
+    run_config = Path(result["stages"]["high"]) / "config.yaml"
+    run_config.parent.mkdir(parents=True)
+    run_config.write_text("level: {name: high}\n")
+    memo, calls = tmp_path / "checked.json", []
+    monkeypatch.setattr(archive, "made_otherwise", lambda r: calls.append(r.job_dir))
+    archive.made_otherwise_all([JobResult(**result, job_dir=str(job_dir))], memo)
+    archive.made_otherwise_all([JobResult(**result, job_dir=str(job_dir))], memo)
+    assert calls == [str(job_dir)]  # checked once, then found in the memo
+    run_config.write_text("level: {name: high}\nlowlevel: {name: go1}\n")  # what its evaluations read changed
+    archive.made_otherwise_all([JobResult(**result, job_dir=str(job_dir))], memo)
+    assert calls == [str(job_dir)] * 2
+    run_config.unlink()  # the run gone (an archive's copy elsewhere): a finding of its own, then both are kept
+    archive.made_otherwise_all([JobResult(**result, job_dir=str(job_dir))], memo)
+    assert calls == [str(job_dir)] * 3 and len(json.loads(memo.read_text())["/".join(job_dir.parts[-2:])]) == 2
+    run_config.write_text("level: {name: high}\nlowlevel: {name: go1}\n")
+    archive.made_otherwise_all([JobResult(**result, job_dir=str(job_dir))], memo)
+    assert calls == [str(job_dir)] * 3
+
+
 @pytest.mark.slow
 def test_a_job_whose_budget_changed_is_kept_or_with_rerun_changed_trained_again(tmp_path, capsys):
     base = ["experiment=ocb_ablation", "method=ours", "budget=smoke", "overrides=['debug=smoke']"]
