@@ -178,12 +178,15 @@ def shape(cfg: dict) -> tuple:
             cfg["lowlevel"]["name"])  # fmt: skip
 
 
-def cost_per_env_step(results: list, roots: list[Path]) -> dict[tuple, float]:
-    """Measured training core-seconds per env-step of each stage `shape`, pooled over the distinct stages behind
-    `results` (their `stage_core_s`) whose `stage.yaml` lies in the store of one of the `roots` (sweep roots or
-    archives): what `mapush sweep --dry-run` estimates the stages it will train from."""
-    seconds: dict[tuple, float] = {}
-    steps: dict[tuple, float] = {}
+def cost_per_env_step(results: list, roots: list[Path]) -> dict[tuple, tuple[float, float]]:
+    """Measured training core-seconds per env-step of each stage `shape`, the lowest and the highest of the
+    distinct stages behind `results` (their `stage_core_s`) whose `stage.yaml` lies in the store of one of the
+    `roots` (sweep roots or archives): what `mapush sweep --dry-run` estimates the stages it will train from. Stages
+    of one shape measured on other days differ by up to four times (the main table's Ours cylinder mid levels: 1113
+    core-s on 2026-12-04, 4334 on 2026-12-07, while the code of 2026-12-04 and of 2026-12-07 took 1.95 and 1.87
+    CPU-s per SA cuboid mid-level iteration side by side): the machine, and what ran beside it, count in a
+    core-second. So an estimate is a range."""
+    rates: dict[tuple, list[float]] = {}
     seen: set[str] = set()
     for result in results:
         for name, path in result.stages.items():
@@ -193,12 +196,10 @@ def cost_per_env_step(results: list, roots: list[Path]) -> dict[tuple, float]:
             seen.add(key)
             record = next((r for r in (stage_dir(root, key) / IDENTITY_FILE for root in roots) if r.is_file()), None)
             cfg = read_identity(record).get("config") if record else None
-            if cfg is None:
-                continue
-            kind = shape(cfg)
-            seconds[kind] = seconds.get(kind, 0.0) + float(core_s)
-            steps[kind] = steps.get(kind, 0.0) + int(cfg["train"]["iterations"]) * env_steps_per_iteration(cfg)
-    return {kind: seconds[kind] / steps[kind] for kind in seconds if steps[kind]}
+            steps = cfg and int(cfg["train"]["iterations"]) * env_steps_per_iteration(cfg)
+            if steps:
+                rates.setdefault(shape(cfg), []).append(float(core_s) / steps)
+    return {kind: (min(found), max(found)) for kind, found in rates.items()}
 
 
 def write_identity(directory: Path, cfg: dict, key: str, **origin) -> None:

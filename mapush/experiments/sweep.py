@@ -99,7 +99,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
             seen.add(stage.identity)
             rows.append({"job": job, "stage": stage.name, "identity": stage.identity, "action": action, "done": done,
                          "iterations": stage.iterations, "env_steps": stage.env_steps,
-                         "core_s": None if rate is None else rate * left})  # fmt: skip
+                         "core_s": None if rate is None else (rate[0] * left, rate[1] * left)})  # fmt: skip
     to_train = [r for r in rows if r["action"] in TRAINS]
     made = f" ({taken} made already by other sweeps' jobs, their results to be taken)" if taken else ""
     print(f"sweep {hydra_cfg.sweep.dir}: {len(jobs)} jobs, {finished} finished{made}; {len(rows)} stages to run; "
@@ -118,7 +118,7 @@ def dry_run(overrides: list[str]) -> list[dict]:
     width = max((len(r["job"]) for r in rows), default=0)
     for r in rows:
         hours = "" if r["action"] in ("reuse", "share") else "  no measured stage like it" if r["core_s"] is None \
-            else f"  ~{r['core_s'] / 3600:.2f} core-h"  # fmt: skip
+            else f"  ~{_hours(*r['core_s'], 2)} core-h"  # fmt: skip
         print(f"  {r['job']:{width}s}  {r['stage']:5s} {r['identity']}  {_action_text(r):18s} "
               f"{r['env_steps'] / 1e6:8.2f}M env-steps{hours}")  # fmt: skip
     return rows
@@ -136,16 +136,23 @@ def _action_text(row: dict) -> str:
 def _estimate_line(to_train: list[dict]) -> str:
     """The training time the dry run expects: measured core-seconds per env-step of finished stages of the same
     `stages.shape`, times the env-steps each stage has left."""
-    known = [r["core_s"] for r in to_train if r["core_s"] is not None]
+    known = [r["core_s"] for r in to_train if r["core_s"] is not None]  # (lowest, highest) core-seconds
     like = "of the same level, object, robots, envs and low level"
     if not known:
         return f"  training time: not estimated (no finished stage {like} has a measured time)"
     unknown = len(to_train) - len(known)
     return (
-        f"  training time, estimated from finished stages {like}: {sum(known) / 3600:.1f} core-hours for "
+        f"  training time, estimated from finished stages {like} (the lowest and highest core-seconds per env-step "
+        f"they took): {_hours(sum(lo for lo, _ in known), sum(hi for _, hi in known), 1)} core-hours for "
         f"{len(known)} of the {len(to_train)} stages to train"
         + (f" ({unknown} not estimated: no measured stage like them)" if unknown else "")
     )
+
+
+def _hours(low_s: float, high_s: float, digits: int) -> str:
+    """Core-seconds as hours, one figure where the range rounds to one, else "low-high"."""
+    low, high = f"{low_s / 3600:.{digits}f}", f"{high_s / 3600:.{digits}f}"
+    return low if low == high else f"{low}-{high}"
 
 
 def run_sweep(overrides: list[str]) -> tuple[Path, list[Path], list[Path]]:

@@ -767,6 +767,19 @@ def test_the_dry_run_estimates_training_time_from_finished_stages_of_the_same_sh
     # twice the env-steps, twice the time
     longer = cli(*args, f"archive={archive}", "experiment.budgets.smoke.stages.mid.env_steps=64")
     assert "~2.00 core-h" in longer.stdout
+    # seed 2's like stage took three times as long per env-step (another machine, another day): a range
+    third = planned_stages(_job_cfg(root, "seed=2"))[0]
+    job = archive / "elsewhere_smoke" / "method=sa,seed=2,task=cylinder"
+    job.mkdir(parents=True)
+    runs = {"mid": str(root / "stages" / third.identity / "mid" / "cylinder" / "run")}
+    (job / RESULT).write_text(json.dumps({"stages": runs, "stage_core_s": {"mid": 10800.0}, "evals": {}}))
+    record = archive / "stages" / third.identity / "stage.yaml"
+    record.parent.mkdir(parents=True)
+    config = compose_stage(third.overrides, lambda cfg: third.iterations)
+    record.write_text(OmegaConf.to_yaml({"identity": third.identity, "config": config}))
+    ranged = cli(*args, f"archive={archive}")
+    rows = [line for line in ranged.stdout.splitlines() if "method=sa,seed=0" in line]
+    assert rows[0].endswith("~1.00-3.00 core-h") and "per env-step they took): 1.0-3.0 core-hours" in ranged.stdout
     assert "training time: not estimated" in cli(*args, "archive=null").stdout
 
 
