@@ -12,7 +12,13 @@ from typing import Literal
 from mapush.atomic import write_json
 from mapush.errors import BadInput
 from mapush.experiments import stages
-from mapush.experiments.job_physics import ObjectPhysics, evaluated_mass, physics_from_stages
+from mapush.experiments.job_physics import (
+    ObjectPhysics,
+    besides_mass,
+    evaluated_mass,
+    physics_from_stages,
+    trained_mass,
+)
 from mapush.experiments.job_records import Curve, Evaluation
 from mapush.migrations import stamp, upgrade
 from mapush.records import check_schema, read_json
@@ -225,6 +231,20 @@ class JobResult:
         if evaluation is None or evaluation.object_mass_kg is not None or physics is None:
             return None if evaluation is None else evaluation.object_mass_kg
         return evaluated_mass(physics, evaluation.overrides or [])
+
+    def trained_mass_kg(self) -> float | None:
+        """kg; the one mass its policy trained at (`job_physics.trained_mass`); None where it trained over a range or
+        that is not known."""
+        return trained_mass(self)
+
+    def made_besides_mass(self) -> tuple[str, ...]:
+        """Its stage overrides other than those that set the object's mass, sorted: what else it was made with."""
+        return besides_mass(self.overrides)
+
+    def sets_mass(self) -> bool:
+        """Whether its stage overrides set the object's mass (one mass or a range): trained at another than its
+        task's."""
+        return len(self.made_besides_mass()) < len(self.overrides)
 
     def evaluated_stage(self, name: str) -> str | None:
         """The stage whose run its evaluation `name` loaded the checkpoint from, None when none is named."""

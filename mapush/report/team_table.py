@@ -8,7 +8,6 @@ from __future__ import annotations
 import numpy as np
 
 from mapush.config import group_file
-from mapush.experiments.job_physics import besides_mass, sets_mass, trained_mass
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import collect, matching, named_shares, record_shares
@@ -225,7 +224,7 @@ def _one_mass_references(
             continue
         if _rules(r) not in rules:
             continue
-        if any(sets_mass(str(o)) for o in r.overrides):  # trained at another mass
+        if r.sets_mass():  # trained at another mass
             continue
         picked.setdefault(r.stages.get("mid") or r.job_dir, r)
     return list(picked.values())
@@ -234,17 +233,17 @@ def _one_mass_references(
 def fixed_mass(result: JobResult) -> float | None:
     """The one mass (kg) a team job's policy trained at, where its sweep set it (`task.object.mass_range=null
     task.object.mass=M` among the stage overrides); None for the study's own jobs, trained over the range."""
-    return trained_mass(result)
+    return result.trained_mass_kg()
 
 
 def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]:
     """The team jobs trained at one evaluated mass alone and made as the study's own jobs, the mass apart (same
     budget, same other overrides): the study's design check."""
-    made = {(r.budget, besides_mass(r.overrides)) for r in mine}
+    made = {(r.budget, r.made_besides_mass()) for r in mine}
     return [
         r
         for r in results
-        if r.table == "team" and fixed_mass(r) is not None and (r.budget, besides_mass(r.overrides)) in made
+        if r.table == "team" and fixed_mass(r) is not None and (r.budget, r.made_besides_mass()) in made
     ]
 
 
