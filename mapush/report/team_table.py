@@ -32,11 +32,12 @@ def _kg(name: str, mass: float | None) -> str:
 
 def team_table(results: list[JobResult], variant: str) -> Table | None:
     """Rows (object, robots), columns the evaluated masses; each cell S.R. (%) over seeds, with its margin. A row
-    whose robots the study also trained at every evaluated mass alone (`fixed_mass`, the design check) is drawn from
-    those policies, marked ALONE: what a team of that size reaches at each mass, not how well one policy learns the
-    range. None for a variant whose every job trained at one mass: those are read by the study's own table."""
+    whose robots the study also trained at every evaluated mass alone (`JobResult.trained_mass_kg`, the design
+    check) is drawn from those policies, marked ALONE: what a team of that size reaches at each mass, not how well
+    one policy learns the range. None for a variant whose every job trained at one mass: those are read by the
+    study's own table."""
     mine = matching(results, table="team", variant=variant)
-    if mine and all(fixed_mass(r) is not None for r in mine):
+    if mine and all(r.trained_mass_kg() is not None for r in mine):
         return None
     alone = _made_as(results, mine)
     masses = eval_masses(mine + alone)
@@ -48,7 +49,7 @@ def team_table(results: list[JobResult], variant: str) -> Table | None:
             label = f"{task} / {counted(n, 'robot')}"
             jobs = [r for r in mine if r.task == task and r.num_agents == n]
             lines[label] = jobs
-            at = {name: [r for r in matching(alone, task=task, num_agents=n) if fixed_mass(r) == mass]
+            at = {name: [r for r in matching(alone, task=task, num_agents=n) if r.trained_mass_kg() == mass]
                   for name, mass in masses.items()}  # fmt: skip  # evaluation name: the jobs trained at its mass
             ranged = [collect(jobs, "success_rate", 100.0, eval=name) for name in masses]
             each = [collect(at[name], "success_rate", 100.0, eval=name) for name in masses]
@@ -230,12 +231,6 @@ def _one_mass_references(
     return list(picked.values())
 
 
-def fixed_mass(result: JobResult) -> float | None:
-    """The one mass (kg) a team job's policy trained at, where its sweep set it (`task.object.mass_range=null
-    task.object.mass=M` among the stage overrides); None for the study's own jobs, trained over the range."""
-    return result.trained_mass_kg()
-
-
 def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]:
     """The team jobs trained at one evaluated mass alone and made as the study's own jobs, the mass apart (same
     budget, same other overrides): the study's design check."""
@@ -243,7 +238,7 @@ def _made_as(results: list[JobResult], mine: list[JobResult]) -> list[JobResult]
     return [
         r
         for r in results
-        if r.table == "team" and fixed_mass(r) is not None and (r.budget, r.made_besides_mass()) in made
+        if r.table == "team" and r.trained_mass_kg() is not None and (r.budget, r.made_besides_mass()) in made
     ]
 
 

@@ -571,7 +571,7 @@ def test_the_team_table_weighs_a_policy_trained_over_the_masses_against_one_trai
 
 
 def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluated_mass_alone():
-    from mapush.report.team_table import fixed_mass, team_table
+    from mapush.report.team_table import team_table
 
     def job(seed, rates, overrides=(), variant="quick"):  # one robot on the cuboid, S.R. at 2 / 8 / 24 / 64 kg
         masses = (2, 8, 24, 64)
@@ -583,8 +583,8 @@ def test_the_team_table_weighs_its_cells_against_policies_trained_at_one_evaluat
     ranged = [job(0, (0.4, 0.6, 0.0, 0.0)), job(1, (0.4, 0.4, 0.0, 0.0))]  # 8 kg: 50 +- 10 %
     at_8 = ["task.object.mass_range=null", "task.object.mass=8.0"]
     alone = [job(s, (0.1, sr, 0.0, 0.0), at_8, "quick_mass-8") for s, sr in ((0, 0.9), (1, 0.7))]  # 8 kg: 80 +- 10
-    assert fixed_mass(alone[0]) == 8.0 and fixed_mass(ranged[0]) is None
-    assert fixed_mass(job(0, (0,) * 4, ["task.object.mass=8.0"])) is None  # the range still drawn: not one mass
+    assert alone[0].trained_mass_kg() == 8.0 and ranged[0].trained_mass_kg() is None
+    assert job(0, (0,) * 4, ["task.object.mass=8.0"]).trained_mass_kg() is None  # the range still drawn: not one mass
     found = [f for f in team_table(ranged + alone, "quick").findings if f.key == "mass_alone"]
     assert keys(found) == [("mass_alone", "cuboid / 1 robot at 8 kg")]  # only the mass they trained at
     # 8 kg: the range 50 +- 10 %, alone 80 +- 10 %: it costs 30 points, beyond the spread (20)
