@@ -186,7 +186,7 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
         store = Path(r.job_dir).parent.parent
         if store not in records:
             records[store] = files_digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
-        runs = [Path(path) / "config.yaml" for path in r.stages.values() if (Path(path) / "config.yaml").is_file()]
+        runs = [saved for path in r.stages.values() if (saved := Path(path) / "config.yaml").is_file()]
         parts = [package, records[store], files_digest([Path(r.job_dir) / RESULT], store)]
         parts += [f"{path}\0{hashlib.sha256(path.read_bytes()).hexdigest()}" for path in runs]
         key = hashlib.sha256("\n".join(parts).encode()).hexdigest()
