@@ -4,6 +4,7 @@ tree (`mapush.config.CONF_DIR = ...`, as tests do) points them all there."""
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 from pathlib import Path
@@ -20,8 +21,19 @@ GROUPS = ("task", "level", "rules", "lowlevel", "reward", "algo", "critic", "deb
 
 
 def group_file(group: str, name: str) -> DictConfig:
-    """One config file of a group as written, not composed (e.g. experiment, scale: its sweep axes and budgets)."""
-    return OmegaConf.load(CONF_DIR / group / f"{name}.yaml")
+    """One config file of a group as written, not composed (e.g. experiment, scale: its sweep axes and budgets).
+    Read only: each file is parsed once while it stays as it is (a table reads the experiments' files dozens of
+    times); copy it (`OmegaConf.to_container`) to change it."""
+    path = CONF_DIR / group / f"{name}.yaml"
+    found = os.stat(path)
+    return _parsed(str(path), found.st_size, found.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=256)
+def _parsed(path: str, _size: int, _mtime_ns: int) -> DictConfig:
+    cfg = OmegaConf.load(path)
+    OmegaConf.set_readonly(cfg, True)
+    return cfg
 
 
 def group_options(group: str, extra_dirs: list[Path] = ()) -> list[str]:

@@ -255,10 +255,18 @@ class JobResult:
     def stage_runs(self) -> list[Path]:
         """The run dirs of its stages, in training order (`stages.stage_paths`): looked up once for its stages and
         job dir as they are (a table's cost lines ask thousands of times)."""
+        return list(self._runs()[1])
+
+    def resolved_stage_runs(self) -> list[Path]:
+        """`stage_runs`, each resolved (symlinks followed): what tells two jobs' stages apart. Resolved once."""
+        return list(self._runs()[2])
+
+    def _runs(self) -> tuple:
         key = (tuple(self.stages.items()), str(self.job_dir))
         if self.runs_found is None or self.runs_found[0] != key:
-            self.runs_found = (key, stages.stage_paths(self.stages, self.job_dir))
-        return list(self.runs_found[1])
+            found = stages.stage_paths(self.stages, self.job_dir)
+            self.runs_found = (key, found, [path.resolve() for path in found])
+        return self.runs_found
 
 
 def _evaluation(given: Evaluation | dict) -> Evaluation:

@@ -155,9 +155,25 @@ def stands_for(sweep_root: Path, key: str) -> list[str]:
     found: list[str] = []
     while key and key not in found:
         found.append(key)
-        record = stage_dir(sweep_root, key) / IDENTITY_FILE
-        key = (stage_record(record).get("adopted_from") or {}).get("identity") if record.is_file() else None
+        key = _adopted_identity(stage_dir(sweep_root, key) / IDENTITY_FILE)
     return found
+
+
+def _adopted_identity(record: Path) -> str | None:
+    """The identity the stage of `record` (its `stage.yaml`) was adopted from; None for one trained as it is, or no
+    record. A record whose text never says `adopted_from` is not parsed: a table asks of hundreds, thousands of
+    times."""
+    if not Path(record).is_file():
+        return None
+    found = os.stat(record)
+    return _adopted_of(os.path.abspath(record), found.st_size, found.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=4096)
+def _adopted_of(path: str, size: int, mtime_ns: int) -> str | None:
+    if b"adopted_from" not in Path(path).read_bytes():
+        return None
+    return (_parsed_record(path, size, mtime_ns).get("adopted_from") or {}).get("identity")
 
 
 def trained_iterations(directory: Path) -> int | None:
@@ -218,7 +234,7 @@ def stage_record(record: Path) -> dict:
     """`read_identity`, shared (read it, do not change it): a table reads each of hundreds of records many times,
     so each is parsed once while its file stays as it is (its path, size and modification time)."""
     found = os.stat(record)
-    return _parsed_record(str(Path(record).resolve()), found.st_size, found.st_mtime_ns)
+    return _parsed_record(os.path.abspath(record), found.st_size, found.st_mtime_ns)
 
 
 @functools.lru_cache(maxsize=4096)

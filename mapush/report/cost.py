@@ -72,7 +72,7 @@ def measured_cost(
 
 def _evaluated(result: JobResult) -> Path:
     """The run dir of the stage a job evaluated (its last)."""
-    return result.stage_runs()[-1].resolve()
+    return result.resolved_stage_runs()[-1]
 
 
 def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: Callable[[Path], float]) -> dict:
@@ -81,7 +81,7 @@ def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: 
     jobs_now = len(results)
     results = results + earlier
     groups: dict[object, list[Path]] = {}  # a stage and its adopted copies (mapush stages rekey) train once
-    for path in {path.resolve() for r in results for path in r.stage_runs()}:
+    for path in {path for r in results for path in r.resolved_stage_runs()}:
         groups.setdefault(_original_stage(path), []).append(path)
     recorded = _recorded_stage_seconds(results)
     training, unreadable, from_records = 0.0, 0, 0
@@ -93,11 +93,11 @@ def _cost_of(results: list[JobResult], earlier: list[JobResult], stage_seconds: 
     evaluation, jobs, from_file_times, unknown = 0.0, 0, 0, 0
     first_to_evaluate = _first_to_evaluate(results)
     for k, r in enumerate(results):
-        evaluated = r.stage_runs()[-1]  # training stops at the evaluated stage
+        evaluated, resolved = r.stage_runs()[-1], r.resolved_stage_runs()[-1]  # training stops at the evaluated stage
         try:
             if r.eval_wall_s is not None:
                 evaluation += float(r.eval_wall_s) * int(r.threads or run_threads(evaluated))
-            elif first_to_evaluate.get(evaluated.resolve()) is r:
+            elif first_to_evaluate.get(resolved) is r:
                 finished = datetime.datetime.fromisoformat(r.finished).timestamp()
                 spent = max(0.0, finished - os.path.getmtime(evaluated / POLICY_FILE))
                 evaluation += spent * run_threads(evaluated)
@@ -158,10 +158,10 @@ def cost_after(results: list[JobResult], others: list[JobResult], cores: int) ->
     """What the jobs' `results` add to the jobs of other tables (`others`), in hours of the `cores`-core machine:
     the table's cost when it runs after them, the stages it shares with them already trained (the scalability
     study after the main table). None when they share no stage."""
-    mine = {path.resolve() for r in results for path in r.stage_runs()}
+    mine = set().union(*(r.resolved_stage_runs() for r in results))
     shared_by: dict[str, set[Path]] = {}  # table -> the stages of `results` it shares
     for r in others:
-        if common := mine & {p.resolve() for p in r.stage_runs()}:
+        if common := mine.intersection(r.resolved_stage_runs()):
             shared_by.setdefault(str(r.table), set()).update(common)
     if not shared_by:
         return None
@@ -178,9 +178,8 @@ def _recorded_stage_seconds(results: list[JobResult]) -> dict[Path, float]:
     recorded: dict[Path, float] = {}
     for r in results:
         seconds = r.stage_core_s or {}
-        for name, path in zip(r.stages, r.stage_runs(), strict=True):
+        for name, path in zip(r.stages, r.resolved_stage_runs(), strict=True):
             if name in seconds:
-                path = path.resolve()
                 recorded[path] = max(recorded.get(path, 0.0), float(seconds[name]))
     return recorded
 
@@ -217,7 +216,7 @@ def _first_to_evaluate(results: list[JobResult]) -> dict[Path, JobResult]:
     taken from another (`taken_from`) evaluated nothing."""
     first: dict[Path, JobResult] = {}
     for r in sorted((r for r in results if not r.taken_from), key=lambda r: r.finished):
-        first.setdefault(r.stage_runs()[-1].resolve(), r)
+        first.setdefault(r.resolved_stage_runs()[-1], r)
     return first
 
 

@@ -13,10 +13,15 @@ ladder); this one writes them all in every format (`BUILDERS`).
 from __future__ import annotations
 
 import json
+import multiprocessing
+import os
+from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 
 from mapush.atomic import write_json, write_text
 from mapush.experiments.archive import check_results, load_results
+from mapush.experiments.results import JobResult
 from mapush.report import curve_findings, declared, plots
 from mapush.report.cells import matching, setup_of
 from mapush.report.cost import cost_after, cost_by, measured_cost
@@ -65,36 +70,81 @@ def write_tables(
     out.mkdir(parents=True, exist_ok=True)
     check_results(results)
     variants = sorted({r.variant for r in results} | {"quick"})
-    tables, kept = [], []
-    for variant in variants:
-        present = {r.table for r in results if r.variant == variant}
-        for kind, build in BUILDERS.items():
-            if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
-                continue
-            table = build(results, variant)
-            if table is None:  # the variant is another table's reference, not a table of its own
-                continue
-            earlier = filled_before(out / f"{table.name}.json")
-            if earlier > filled_cells(table) and not overwrite:
-                kept.append((table, earlier))
-                continue
-            behind = matching(results, table=kind, variant=variant) + table.also_behind  # each counted in its cost
-            table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
-            table.setup = setup_of(behind)
-            table.cost = measured_cost(behind)
-            table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
-            others = [r for r in results if r.table != kind and r.variant == variant]
-            table.cost["after"] = cost_after(behind, others, table.cost["cores"])
-            write_text(out / f"{table.name}.md", markdown(table))
-            write_text(out / f"{table.name}.tex", latex(table))
-            write_text(out / f"{table.name}.csv", csv_text(table))
-            write_json(out / f"{table.name}.json", sidecar(table))
-            if kind in SUMMARY_PLOTS:
-                SUMMARY_PLOTS[kind](table, out / f"{table.name}.png")
-            title = f"{table.title}: learning curves, evaluated checkpoints"
-            plots.curves_plot(table.curves, out / f"{table.name}_curves.png", title)
-            for stage in curve_findings.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
-                title = f"{table.title}: the {stage} level's own learning curves, evaluated checkpoints"
-                plots.curves_plot(table.curves, out / f"{table.name}_{stage}_curves.png", title, stage)
-            tables.append(table)
+    tables, kept, drawn = [], [], []
+    with drawing_pool() as pool:  # each table's figures are drawn while the next table is built
+        for variant in variants:
+            present = {r.table for r in results if r.variant == variant}
+            for kind, build in BUILDERS.items():
+                if (kinds is not None and kind not in kinds) or (variant != "quick" and kind not in present):
+                    continue
+                table = build(results, variant)
+                if table is None:  # the variant is another table's reference, not a table of its own
+                    continue
+                earlier = filled_before(out / f"{table.name}.json")
+                if earlier > filled_cells(table) and not overwrite:
+                    kept.append((table, earlier))
+                    continue
+                behind = matching(results, table=kind, variant=variant) + table.also_behind  # each in its cost
+                _write_table(table, kind, behind, [r for r in results if r.table != kind and r.variant == variant], out)
+                drawn += [pool.submit(draw, *args) for draw, args in _figures(table, kind, behind, out)]
+                tables.append(table)
+        for figure in drawn:
+            figure.result()  # a figure that failed raises here
     return tables, kept
+
+
+def _write_table(table: Table, kind: str, behind: list[JobResult], others: list[JobResult], out: Path) -> None:
+    """The table's setup, cost lines and what was made otherwise, from the jobs `behind` it (`others`: the other
+    tables' jobs of its variant, for what it adds after them), then its md, tex, csv and json."""
+    table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
+    table.setup = setup_of(behind)
+    table.cost = measured_cost(behind)
+    table.cost["by_method"] = cost_by(behind, "method_label", table.cost["cores"])
+    table.cost["after"] = cost_after(behind, others, table.cost["cores"])
+    write_text(out / f"{table.name}.md", markdown(table))
+    write_text(out / f"{table.name}.tex", latex(table))
+    write_text(out / f"{table.name}.csv", csv_text(table))
+    write_json(out / f"{table.name}.json", sidecar(table))
+
+
+def _figures(table: Table, kind: str, behind: list[JobResult], out: Path) -> list[tuple[Callable, tuple]]:
+    """The table's figures to draw, each as (function, arguments): its own figure where it has one
+    (`SUMMARY_PLOTS`), its learning curves, and the own curves of each stage trained under the evaluated one."""
+    figures: list[tuple[Callable, tuple]] = []
+    if kind in SUMMARY_PLOTS:
+        figures.append((SUMMARY_PLOTS[kind], (table, out / f"{table.name}.png")))
+    title = f"{table.title}: learning curves, evaluated checkpoints"
+    figures.append((plots.curves_plot, (table.curves, out / f"{table.name}_curves.png", title)))
+    for stage in curve_findings.drawn_stages(behind):  # a stage trained under the evaluated one, on its own env
+        title = f"{table.title}: the {stage} level's own learning curves, evaluated checkpoints"
+        figures.append((plots.curves_plot, (table.curves, out / f"{table.name}_{stage}_curves.png", title, stage)))
+    return figures
+
+
+class _Inline:
+    """An executor that runs each call as it is submitted (one core, or no `fork`)."""
+
+    def __enter__(self) -> _Inline:
+        return self
+
+    def __exit__(self, *_) -> None:
+        return None
+
+    def submit(self, function: Callable, *args) -> Future:
+        done: Future = Future()
+        done.set_result(function(*args))
+        return done
+
+
+def drawing_pool():
+    """Where the figures are drawn: forked worker processes, one per core up to `DRAWING_WORKERS`, beside this one
+    (drawing the figures takes longer than building the tables), else here, in turn. The workers end with the
+    `with` block that holds them."""
+    cores = min(os.cpu_count() or 1, DRAWING_WORKERS)
+    if cores < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        return _Inline()
+    return ProcessPoolExecutor(max_workers=cores, mp_context=multiprocessing.get_context("fork"))
+
+
+DRAWING_WORKERS = 4
+"""At most this many processes draw the figures (about 15 PNGs)."""

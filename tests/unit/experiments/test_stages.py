@@ -69,7 +69,7 @@ def test_an_experiment_whose_table_no_builder_draws_is_refused_before_it_trains(
 
     conf = tmp_path / "conf"
     shutil.copytree(config.CONF_DIR, conf)
-    mine = config.group_file("experiment", "ocb_ablation")
+    mine = OmegaConf.create(OmegaConf.to_container(config.group_file("experiment", "ocb_ablation")))
     mine.name, mine.table = "mine", "mian"  # a typo
     (conf / "experiment" / "mine.yaml").write_text(OmegaConf.to_yaml(mine))
     monkeypatch.setattr(config, "CONF_DIR", conf)
