@@ -48,6 +48,15 @@ class Term:
         return self.func(env, **self.params)
 
 
+def check_replaced_events(section: str, terms: dict | None, replaced: dict | None) -> None:
+    """BadInput when a section that replaces some events' params (`section`: `level.eval_events`) names an event
+    that the events it replaces them in (`terms`: `level.events`) do not list. Needs no event's code: told before
+    training's imports."""
+    unknown = sorted(set(replaced or {}) - set(terms or {}))
+    if unknown:
+        raise BadInput(f"{section}.{unknown[0]} names no event; valid: {', '.join(terms or {})}")
+
+
 def bind_term(section: str, name: str, spec: dict) -> Term:
     """The term `name` of a config section (e.g. `reward.terms`) from `{func, params}`, its params checked against
     the function's signature. A param with a default may be left out: the default keeps runs saved before it

@@ -22,17 +22,16 @@ from mapush.envs.mid import MidPushEnv
 from mapush.envs.mid_long import LongMidPushEnv
 from mapush.envs.nav_high import NavHighPushEnv
 from mapush.envs.observations import agents_for_local_dim
+from mapush.envs.resets import make_planner
 from mapush.errors import BadInput
 from mapush.logging.foxglove_scene import SceneLayout
 from mapush.logging.go1_scene import Go1Layout
-from mapush.planning.planner import ObjectPlanner
 from mapush.rl.frozen import load_mid_policy
 from mapush.rl.policy import actor_shape, read_checkpoint
 from mapush.rl.runner import MapushRunner, load_checkpoint, obs_width, seed_everything, train_cfg_for
 from mapush.rl.vecenv import AgentRowsVecEnv
 from mapush.rundir import resolve_checkpoint
 from mapush.schema import check_config
-from mapush.sim.shapes import object_radius
 
 
 @dataclass(frozen=True)
@@ -141,12 +140,6 @@ def make_env(cfg: dict, evaluation: bool = False):
     if level.planner and cfg["level"]["path"]["plan_at_eval" if evaluation else "plan_in_training"]:
         extra["planner"] = make_planner(cfg)
     return level.env(cfg, evaluation=evaluation, **extra)
-
-
-def make_planner(cfg: dict) -> ObjectPlanner:
-    """The configured OMPL planner for the config's task and room, seeded with the config's seed."""
-    radius = object_radius(cfg["task"]["object"])
-    return ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius, seed=int(cfg["seed"]))
 
 
 def torch_threads(cfg: dict) -> tuple[int, int]:

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from mapush.commands.arguments import output_dir, seeds_of
+from mapush.config_terms import check_replaced_events
 from mapush.errors import BadInput
 
 CFG_PARTS = ("job", "hydra", "all")
@@ -46,6 +47,7 @@ def train(overrides: list[str], resume: Path | None, show: str | None) -> None:
         return
     cfg = compose_config(overrides)
     _probe_path(Path(cfg.train.get("run_dir") or cfg.train.run_root))
+    check_replaced_events("level.eval_events", cfg.level.get("events"), cfg.level.get("eval_events"))
     prepare_training_video(cfg)
     from mapush import training  # seconds of torch, rsl-rl and MuJoCo: after what can be refused without them
 

@@ -60,7 +60,7 @@ def plan(overrides: list[str], task: str, seed: int, json_path: Path | None, png
 
     cfg = to_plain(compose_config(["level=high", f"task={task}", f"seed={seed}", *overrides]))
     from mapush.commands import plan as planning  # after the checks: the planner and the envs take seconds to import
-    from mapush.levels import make_planner
+    from mapush.envs.resets import make_planner
 
     planner = make_planner(cfg)
     try:

@@ -22,8 +22,7 @@ import math
 import mujoco
 import numpy as np
 
-from mapush.config_terms import bind_term
-from mapush.errors import BadInput
+from mapush.config_terms import bind_term, check_replaced_events
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import Go1, rotate_into_world
 from mapush.lowlevel.go1_training_scene import (
@@ -250,9 +249,7 @@ def event_specs(level: dict, evaluation: bool) -> dict[str, tuple[type, dict, di
     """`{name: (class, its params in this mode, in the other)}` of a level config's events, in order, each checked
     against its class (BadInput for a bad path, param or `eval_events` entry)."""
     events, overrides = level.get("events") or {}, level.get("eval_events") or {}
-    unknown = sorted(set(overrides) - set(events))
-    if unknown:
-        raise BadInput(f"level.eval_events.{unknown[0]} names no event; valid: {', '.join(events)}")
+    check_replaced_events("level.eval_events", events, overrides)
     specs = {}
     for name, spec in events.items():
         if spec is None:

@@ -9,6 +9,7 @@ import torch
 from mapush.errors import BadInput
 from mapush.planning.geometry import parked, point_distance
 from mapush.planning.paths import resample
+from mapush.planning.planner import ObjectPlanner
 from mapush.sim.shapes import object_radius
 
 MAX_REJECTION_ROUNDS = 32
@@ -244,3 +245,10 @@ def _in_strip(gen: torch.Generator, path: torch.Tensor, width: float, offset: fl
     lateral = uniform(gen, -width / 2, width / 2, m)
     lateral = lateral + torch.sign(lateral) * offset
     return path[rows, idx] + normal * lateral.unsqueeze(-1)
+
+
+def make_planner(cfg: dict) -> ObjectPlanner:
+    """The configured OMPL planner for the config's task and room (the long-horizon maps above), seeded with the
+    config's seed. Here, not beside the levels: `mapush plan` builds it without importing the envs and PPO."""
+    radius = object_radius(cfg["task"]["object"])
+    return ObjectPlanner(cfg["level"]["planner"], cfg["sim"]["arena_size"], radius, seed=int(cfg["seed"]))

@@ -61,6 +61,21 @@ DAMAGED = {  # result.json's text -> what the line names
 
 
 @pytest.mark.parametrize("case", list(DAMAGED))
+def test_a_damaged_result_is_refused_in_one_line_naming_the_file_and_the_field(tmp_path, case):
+    from mapush.errors import BadInput
+    from mapush.experiments.archive import load_results
+
+    text, named = DAMAGED[case]
+    result = tmp_path / "runs" / JOB / "result.json"
+    result.parent.mkdir(parents=True)
+    result.write_bytes(text.encode(errors="surrogateescape"))
+    with pytest.raises(BadInput) as refused:
+        load_results([tmp_path / "runs"])  # what `mapush tables` reads first, from every root
+    line = str(refused.value)
+    assert "\n" not in line and all(part in line for part in (str(JOB / "result.json"), named, "valid:"))
+
+
+@pytest.mark.parametrize("case", ["cut", "evals a list"])  # the parse and the schema; every case: the test above
 @pytest.mark.parametrize("where", ["runs", "results/jobs"])
 def test_tables_over_a_damaged_result_is_one_line_naming_it_and_writes_nothing(cli, tmp_path, snapshot, case, where):
     text, named = DAMAGED[case]

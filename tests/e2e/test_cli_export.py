@@ -8,6 +8,7 @@ import pytest
 import torch
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine (10-11 s, 2026-12-07)
 def test_a_cut_run_exports_its_last_checkpoint_to_a_new_dir_and_stays_cut(cli, smoke_run, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(smoke_run, run)

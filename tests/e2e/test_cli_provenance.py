@@ -36,6 +36,7 @@ def test_eval_records_the_code_and_warns_once_when_the_run_was_made_by_other_cod
     assert len(warnings) == 1 and "000000000000" in warnings[0] and result["package_hash"][:12] in warnings[0]
 
 
+@pytest.mark.slow  # over 8 s on the idle 2-core machine (10-11 s, 2026-12-07)
 def test_a_run_made_before_the_hash_was_recorded_evaluates_without_a_warning(cli, run_copy):
     meta_path = run_copy / "meta.json"
     old = {k: v for k, v in json.loads(meta_path.read_text()).items() if k not in ("mapush_version", "package_hash")}

@@ -15,6 +15,7 @@ from omegaconf import OmegaConf
 from stand_ins import touching_pairs
 
 from mapush.config import CONF_DIR
+from mapush.errors import BadInput
 from mapush.lowlevel import go1_constants as go1
 from mapush.lowlevel.go1 import PROPRIO_DIM
 from mapush.lowlevel.go1_model import go1_spec, standalone_spec
@@ -518,7 +519,19 @@ def test_evaluation_replaces_the_event_params_that_eval_events_names(cfg_for):
     ],
     ids=["unknown-event", "unknown-param", "unknown-class", "untrusted-code"],
 )
-def test_a_bad_event_is_one_line_exit_2_and_makes_no_run_dir(cli, tmp_path, override, named):
+def test_a_bad_event_is_refused_in_one_line_naming_it(cfg_for, override, named):
+    from mapush.envs.locomotion_events import event_specs
+
+    level = cfg_for("level=locomotion", override)["level"]
+    for evaluation in (False, True):  # either mode's env refuses it before it builds anything
+        with pytest.raises(BadInput) as refused:
+            event_specs(level, evaluation)
+        assert named in str(refused.value) and "\n" not in str(refused.value)
+
+
+def test_a_bad_event_given_to_mapush_train_is_exit_2_and_makes_no_run_dir(cli, tmp_path):
+    override = "+level.eval_events.shove.force_n=1.0"
     proc = cli("train", "level=locomotion", "debug=smoke", override, f"train.run_root={tmp_path / 'runs'}")
-    assert proc.returncode == 2 and named in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert "level.eval_events.shove names no event; valid: push, lean" in proc.stderr
     assert not (tmp_path / "runs").exists()
