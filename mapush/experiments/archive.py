@@ -178,19 +178,10 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
     legged evaluation reads which locomotion policy its stage ran with), and every file of the mapush package (its
     configs, code and shipped policies) with the versions of Hydra and OmegaConf. A job keeps up to `MEMO_KEYS`
     findings, so that a machine with its runs and one without (the archive in git) each find theirs."""
-    package = composing_digest()
-    earlier = _read_memo(memo)
-    kept, records = {}, {}
-    for r in results:
-        name = "/".join(job_key(r.job_dir))
-        store = Path(r.job_dir).parent.parent
-        if store not in records:
-            records[store] = files_digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
-        runs = [saved for path in r.stages.values() if (saved := Path(path) / "config.yaml").is_file()]
-        parts = [package, records[store], files_digest([Path(r.job_dir) / RESULT], store)]
-        parts += [f"{path}\0{hashlib.sha256(path.read_bytes()).hexdigest()}" for path in runs]
-        key = hashlib.sha256("\n".join(parts).encode()).hexdigest()
-        entries = _memo_entries(earlier.get(name))
+    earlier = read_memo(memo)
+    kept = {}
+    for r, (name, key) in zip(results, memo_keys(results), strict=True):
+        entries = memo_entries(earlier.get(name))
         found = next((entry for entry in entries if entry["key"] == key), None)
         change = Change.from_record(found["change"]) if found else made_otherwise(r)
         r.made_otherwise = change
@@ -201,11 +192,37 @@ def made_otherwise_all(results: list[JobResult], memo: Path | None = None) -> No
             write_json(memo, kept)
 
 
+def memo_keys(results: list[JobResult], runs_here: bool = True) -> list[tuple[str, str]]:
+    """Each result's name in the memo (`<sweep>/<job>`) and its key there (`made_otherwise_all`): a hash of all
+    that its finding depends on. `runs_here=False`: the key on a machine that holds the archive alone, none of its
+    stage runs (a fresh clone), whatever this one holds."""
+    package, records, keys = composing_digest(), {}, []
+    for r in results:
+        store = Path(r.job_dir).parent.parent
+        if store not in records:
+            records[store] = files_digest(sorted(store.glob(f"{STORE}/*/{IDENTITY_FILE}")), store)
+        runs = [saved for path in r.stages.values() if runs_here and (saved := Path(path) / "config.yaml").is_file()]
+        parts = [package, records[store], files_digest([Path(r.job_dir) / RESULT], store)]
+        parts += [f"{path}\0{hashlib.sha256(path.read_bytes()).hexdigest()}" for path in runs]
+        keys.append(("/".join(job_key(r.job_dir)), hashlib.sha256("\n".join(parts).encode()).hexdigest()))
+    return keys
+
+
+def memo_lacks(root: Path) -> tuple[list[str], int]:
+    """The jobs of the results root `root` (the archive) whose finding its memo lacks as a machine without their
+    stage runs computes the key (`memo_keys`), by name, and how many jobs it holds: where a fresh clone's
+    `mapush tables` would compose them again."""
+    results = load_results([Path(root)])
+    memo = read_memo(Path(root) / CHECKED)
+    held = {name: {entry["key"] for entry in memo_entries(memo.get(name))} for name in memo}
+    return [name for name, key in memo_keys(results, runs_here=False) if key not in held.get(name, ())], len(results)
+
+
 MEMO_KEYS = 2
 """Findings kept per job in the memo (`made_otherwise_all`), the newest first: with its runs here and without."""
 
 
-def _memo_entries(found) -> list[dict]:
+def memo_entries(found) -> list[dict]:
     """A job's findings in the memo, newest first: a list, or the one mapping memos held before 2026-12-07."""
     entries = found if isinstance(found, list) else [found]
     return [e for e in entries if isinstance(e, dict) and isinstance(e.get("key"), str) and "change" in e]
@@ -227,7 +244,7 @@ def check_results(results: list[JobResult]) -> None:
         made_otherwise_all(found, memo=root / CHECKED)
 
 
-def _read_memo(memo: Path | None) -> dict:
+def read_memo(memo: Path | None) -> dict:
     try:
         return json.loads(Path(memo).read_text()) if memo else {}
     except (OSError, ValueError):

@@ -25,3 +25,16 @@ def test_the_committed_tables_are_regenerated_from_the_archive_as_they_are(cli, 
     for name in made:
         assert (RESULTS / name).is_file(), f"results/{name} is made by mapush tables but not committed"
         assert (out / name).read_text() == (RESULTS / name).read_text(), f"results/{name} differs from what it makes"
+
+
+def test_the_archive_memo_holds_every_archived_job_as_this_code_finds_it():
+    # a stale memo (code or configs that compose a job changed since it was made) makes a fresh clone's
+    # `mapush tables` compose all 90-odd jobs again: a minute and more instead of seconds
+    from mapush.experiments.archive import CHECKED, memo_lacks
+
+    stale, jobs = memo_lacks(RESULTS / "jobs")
+    assert jobs
+    assert not stale, (
+        f"results/jobs/{CHECKED} lacks {len(stale)} of {jobs} jobs as this code finds them (e.g. {stale[:2]}): "
+        "run tools/refresh_archive_memo.sh and commit the memo"
+    )
