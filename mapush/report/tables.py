@@ -85,7 +85,8 @@ def write_tables(
                     kept.append((table, earlier))
                     continue
                 behind = matching(results, table=kind, variant=variant) + table.also_behind  # each in its cost
-                _write_table(table, kind, behind, [r for r in results if r.table != kind and r.variant == variant], out)
+                others = [r for r in results if r.table != kind and r.variant == variant]
+                _write_table(table, behind, others, out)
                 drawn += [pool.submit(draw, *args) for draw, args in _figures(table, kind, behind, out)]
                 tables.append(table)
         for figure in drawn:
@@ -93,7 +94,7 @@ def write_tables(
     return tables, kept
 
 
-def _write_table(table: Table, kind: str, behind: list[JobResult], others: list[JobResult], out: Path) -> None:
+def _write_table(table: Table, behind: list[JobResult], others: list[JobResult], out: Path) -> None:
     """The table's setup, cost lines and what was made otherwise, from the jobs `behind` it (`others`: the other
     tables' jobs of its variant, for what it adds after them), then its md, tex, csv and json."""
     table.otherwise = [f"{Path(r.job_dir).name}: {r.made_otherwise}" for r in behind if r.made_otherwise]
