@@ -6,6 +6,8 @@ from __future__ import annotations
 import pytest
 from stand_ins import assert_bad_input
 
+from mapush.errors import BadInput
+
 
 @pytest.fixture
 def train_bad(cli, tmp_path):
@@ -210,14 +212,32 @@ def test_a_module_the_user_trusts_on_the_command_line_may_be_named(cli, tmp_path
         ("task.name=../../x", "a name of letters"),
     ],
 )
-def test_a_number_or_name_that_cannot_be_is_refused(train_bad, override, valid):
-    assert_bad_input(train_bad(override), override.partition("=")[0], valid)
+def test_a_number_or_name_that_cannot_be_is_refused(override, valid):
+    from mapush.config import compose_config  # what `mapush train` composes first; the CLI's line: the test below
+
+    with pytest.raises(BadInput) as refused:
+        compose_config(["debug=smoke", override])
+    assert override.partition("=")[0] in str(refused.value) and valid in str(refused.value)
+
+
+def test_a_number_that_cannot_be_is_one_line_and_makes_no_run_dir(train_bad):
+    override = "reward.terms.subgoal_reached.weight=nan"
+    assert_bad_input(train_bad(override), override.partition("=")[0], "a finite number")
 
 
 @pytest.mark.parametrize("args", [("-m", "seed=0,1"), ("seed=0,1",), ("--multirun", "task=cuboid"), ("seed=range(2)",)])
-def test_hydra_multirun_habits_point_to_mapush_sweep(train_bad, args):
-    line = assert_bad_input(train_bad(*args), "not a sweep", "valid:", "`mapush sweep")
+def test_hydra_multirun_habits_point_to_mapush_sweep(args):
+    from mapush.commands.run_commands import train  # refused before it composes; the CLI's line: the test below
+
+    with pytest.raises(BadInput) as refused:
+        train(list(args), resume=None, show=None)
+    line = str(refused.value)
+    assert "\n" not in line and all(part in line for part in ("not a sweep", "valid:", "`mapush sweep"))
     assert "-m" not in line.partition("`mapush sweep")[2] and "--multirun" not in line.partition("`mapush sweep")[2]
+
+
+def test_a_multirun_habit_on_the_command_line_is_one_line_and_makes_no_run_dir(train_bad):
+    assert_bad_input(train_bad("-m", "seed=0,1"), "not a sweep", "valid:", "`mapush sweep")
 
 
 @pytest.mark.slow  # over 8 s on the idle 2-core machine
@@ -231,8 +251,18 @@ def test_a_smoke_multirun_points_to_a_small_sweep_that_plans_only_that(train_bad
 
 
 @pytest.mark.parametrize("text", ["", "{", "- a list\n", "level: {name: mid}\n"])
-def test_a_run_whose_config_yaml_is_torn_or_empty_is_one_line(cli, run_copy, snapshot, text):
-    (run_copy / "config.yaml").write_text(text)
+def test_a_run_whose_config_yaml_is_torn_or_empty_is_refused_naming_it(tmp_path, text):
+    from mapush.config import load_run_config  # what eval and resume read first; the CLI's line: the test below
+
+    (tmp_path / "config.yaml").write_text(text)
+    with pytest.raises(BadInput) as refused:
+        load_run_config(tmp_path)
+    line = str(refused.value)
+    assert "\n" not in line and "config.yaml" in line and "valid: the config.yaml a run was made" in line
+
+
+def test_a_run_whose_config_yaml_is_torn_is_one_line_to_eval_and_resume(cli, run_copy, snapshot):
+    (run_copy / "config.yaml").write_text("{")
     before = snapshot(run_copy)
     assert_bad_input(cli("eval", run_copy, "--episodes", "1"), "config.yaml", "valid: the config.yaml a run was made")
     assert_bad_input(cli("train", "--resume", run_copy, "train.iterations=4"), "config.yaml")
