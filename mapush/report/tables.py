@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import sys
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
@@ -139,10 +140,11 @@ class _Inline:
 
 def drawing_pool():
     """Where the figures are drawn: forked worker processes, one per core up to `DRAWING_WORKERS`, beside this one
-    (drawing the figures takes longer than building the tables), else here, in turn. The workers end with the
-    `with` block that holds them."""
+    (drawing the figures takes longer than building the tables), else here, in turn: on one core, without `fork`,
+    or in a process that has imported PyTorch (`mapush reproduce` after training in process), whose thread pools a
+    fork does not carry safely. The workers end with the `with` block that holds them."""
     cores = min(os.cpu_count() or 1, DRAWING_WORKERS)
-    if cores < 2 or "fork" not in multiprocessing.get_all_start_methods():
+    if cores < 2 or "fork" not in multiprocessing.get_all_start_methods() or "torch" in sys.modules:
         return _Inline()
     return ProcessPoolExecutor(max_workers=cores, mp_context=multiprocessing.get_context("fork"))
 
