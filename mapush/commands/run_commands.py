@@ -17,7 +17,8 @@ def train(overrides: list[str], resume: Path | None, show: str | None) -> None:
     """`mapush train`: print the composed config (`show`), continue a cut run (`resume`) or train a fresh one."""
     from omegaconf import OmegaConf
 
-    from mapush.config import compose_config, load_run_config
+    from mapush.config import compose_config, load_run_config, to_plain
+    from mapush.envs.spawn_ring import check_spawn
     from mapush.viz.preflight import prepare_training_video
 
     _refuse_multirun(overrides)
@@ -48,6 +49,7 @@ def train(overrides: list[str], resume: Path | None, show: str | None) -> None:
     cfg = compose_config(overrides)
     _probe_path(Path(cfg.train.get("run_dir") or cfg.train.run_root))
     check_replaced_events("level.eval_events", cfg.level.get("events"), cfg.level.get("eval_events"))
+    check_spawn(to_plain(cfg))  # the env checks it again; here before training's imports
     prepare_training_video(cfg)
     from mapush import training  # seconds of torch, rsl-rl and MuJoCo: after what can be refused without them
 

@@ -8,7 +8,7 @@ import torch
 
 from mapush.envs.base import EnvCore
 from mapush.envs.events import EpisodeEvents
-from mapush.envs.resets import check_agent_count, check_spawn_ring
+from mapush.envs.spawn_ring import check_spawn
 from mapush.errors import BadInput
 from mapush.lowlevel import BACKENDS, backend_name, backend_of
 from mapush.planning.geometry import corners
@@ -105,8 +105,7 @@ class PushEnv(EnvCore):
         if backend_name(cfg["lowlevel"]) not in BACKENDS:
             raise BadInput(f"unknown lowlevel backend {backend_name(cfg['lowlevel'])!r}; valid: {', '.join(BACKENDS)}")
         backend_of(cfg["lowlevel"]).check(cfg["lowlevel"])  # e.g. the go1 backend's policy must exist
-        check_agent_count(cfg["task"], cfg["level"]["min_spawn_distance"])
-        check_spawn_ring(cfg)
+        check_spawn(cfg)
         super().validate(cfg)
 
     def _read_state(self) -> None:

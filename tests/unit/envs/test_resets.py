@@ -8,7 +8,8 @@ import pytest
 import torch
 
 from mapush.envs import resets
-from mapush.envs.resets import check_agent_count, ring_capacity, sample_mid_layout, sample_ring
+from mapush.envs.resets import sample_mid_layout, sample_ring
+from mapush.envs.spawn_ring import check_agent_count, ring_capacity
 from mapush.errors import BadInput
 
 N = 256  # layouts per test
