@@ -18,13 +18,10 @@ import sys
 from pathlib import Path
 
 from mapush.atomic import write_json
-from mapush.experiments.archive import CHECKED, memo_entries, load_results, memo_keys, read_memo
+from mapush.experiments.archive import CHECKED, clone_memo, read_memo
 
-made = read_memo(Path(sys.argv[1]) / CHECKED)
-kept = {}
-for name, key in memo_keys(load_results([Path("results/jobs")]), runs_here=False):
-    kept[name] = [entry for entry in memo_entries(made.get(name)) if entry["key"] == key]
-    assert kept[name], f"{name}: not found by the copy"
+kept, lacking = clone_memo(Path("results/jobs"), read_memo(Path(sys.argv[1]) / CHECKED))
+assert not lacking, f"not found by the copy: {lacking[:3]}"
 write_json(Path("results/jobs") / CHECKED, kept)
 print(f"results/jobs/{CHECKED}: {len(kept)} jobs")
 PY

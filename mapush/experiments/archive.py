@@ -208,14 +208,23 @@ def memo_keys(results: list[JobResult], runs_here: bool = True) -> list[tuple[st
     return keys
 
 
+def clone_memo(root: Path, made: dict) -> tuple[dict, list[str]]:
+    """What a fresh clone finds of the jobs of the results root `root` (the archive) in the memo `made`: for each
+    job, the findings kept under the key that a machine without its stage runs computes (`memo_keys`), and the
+    names of the jobs with none (where the clone's `mapush tables` would compose them again)."""
+    kept, lacking = {}, []
+    for name, key in memo_keys(load_results([Path(root)]), runs_here=False):
+        kept[name] = [entry for entry in memo_entries(made.get(name)) if entry["key"] == key]
+        if not kept[name]:
+            lacking.append(name)
+    return kept, lacking
+
+
 def memo_lacks(root: Path) -> tuple[list[str], int]:
-    """The jobs of the results root `root` (the archive) whose finding its memo lacks as a machine without their
-    stage runs computes the key (`memo_keys`), by name, and how many jobs it holds: where a fresh clone's
-    `mapush tables` would compose them again."""
-    results = load_results([Path(root)])
-    memo = read_memo(Path(root) / CHECKED)
-    held = {name: {entry["key"] for entry in memo_entries(memo.get(name))} for name in memo}
-    return [name for name, key in memo_keys(results, runs_here=False) if key not in held.get(name, ())], len(results)
+    """The jobs whose finding the memo of the archive `root` lacks as a fresh clone looks it up (`clone_memo`), by
+    name, and how many jobs the archive holds."""
+    kept, lacking = clone_memo(root, read_memo(Path(root) / CHECKED))
+    return lacking, len(kept)
 
 
 MEMO_KEYS = 2
