@@ -11,6 +11,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 
@@ -121,6 +122,43 @@ def smoke_run(tmp_path_factory) -> Path:
         (root / "run_dir.txt").write_text(str(run_dir))
 
     return Path((made_once(tmp_path_factory, "smoke_run", make) / "run_dir.txt").read_text())
+
+
+class Resumed(NamedTuple):
+    """A smoke run trained for 3 iterations with TensorBoard and progress lines on, then resumed to 6."""
+
+    run: Path
+    """The resumed run dir (6 iterations, two metrics parts)."""
+    first: Path
+    """A copy of the same run dir as the first part left it (3 iterations)."""
+    scalars_before: dict[str, dict[int, float]]
+    """Every scalar of the first part's metrics log, by tag and iteration."""
+    stderr: str
+    """Both commands' stderr, one after the other."""
+
+
+@pytest.fixture(scope="session")
+def resumed_run(tmp_path_factory) -> Resumed:
+    """One run cut and resumed through the CLI, shared by the resume and metrics tests (made once for every test
+    process; read-only)."""
+    from mapush.logging.mcap_files import iter_json
+
+    def make(folder: Path) -> None:
+        run_dir = folder / "run"
+        args = ["debug=smoke", "log.tensorboard=true", "train.progress=true", "train.iterations=3"]
+        first = _run_cli(["train", *args, f"train.run_dir={run_dir}"], cwd=folder)
+        assert first.returncode == 0, first.stderr
+        shutil.copytree(run_dir, folder / "first")
+        second = _run_cli(["train", "--resume", str(run_dir), "train.iterations=6"], cwd=folder)
+        assert second.returncode == 0, second.stderr
+        assert second.stdout.strip().splitlines()[-1] == str(run_dir)
+        (folder / "stderr.txt").write_text(first.stderr + second.stderr)
+
+    folder = made_once(tmp_path_factory, "resumed_run", make)
+    before: dict[str, dict[int, float]] = {}
+    for topic, _, data in iter_json(folder / "first" / "metrics.mcap", "/metrics/"):
+        before.setdefault(topic.removeprefix("/metrics/"), {})[data["iteration"]] = data["value"]
+    return Resumed(folder / "run", folder / "first", before, (folder / "stderr.txt").read_text())
 
 
 @pytest.fixture

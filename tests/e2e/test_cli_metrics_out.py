@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import re
-from pathlib import Path
 
 import pytest
 import torch
@@ -33,28 +31,14 @@ def tensorboard_scalars(run_dir) -> dict[str, dict[int, float]]:
     return {tag: {e.step: e.value for e in events.Scalars(tag)} for tag in events.Tags()["scalars"]}
 
 
-pytestmark = pytest.mark.xdist_group("test_cli_metrics_out")  # its tests in one process: none waits for `resumed_tb`
+pytestmark = pytest.mark.xdist_group("resumed_run")  # with the resume tests: one process makes `resumed_run`
 
 
-@pytest.fixture(scope="session")
-def resumed_tb(run_cli, make_once):
-    """A smoke run of 3 iterations with TensorBoard on, then resumed to 6, progress lines on; (run dir, its scalars
-    before the resume, both stderrs). Made once for every test process (`make_once`), read-only."""
-
-    def make(folder: Path) -> None:
-        run_dir = folder / "run"
-        args = ["debug=smoke", "log.tensorboard=true", "train.progress=true", "train.iterations=3"]
-        first = run_cli(["train", *args, f"train.run_dir={run_dir}"], cwd=folder)
-        assert first.returncode == 0, first.stderr
-        (folder / "before.json").write_text(json.dumps(mcap_scalars(run_dir)))
-        second = run_cli(["train", "--resume", run_dir, "train.iterations=6"], cwd=folder)
-        assert second.returncode == 0, second.stderr
-        (folder / "stderr.txt").write_text(first.stderr + second.stderr)
-
-    folder = make_once("resumed_tb", make)
-    before = {tag: {int(it): value for it, value in series.items()}
-              for tag, series in json.loads((folder / "before.json").read_text()).items()}  # fmt: skip
-    return folder / "run", before, (folder / "stderr.txt").read_text()
+@pytest.fixture
+def resumed_tb(resumed_run):
+    """`resumed_run` (3 iterations with TensorBoard and progress lines on, resumed to 6): (run dir, its scalars
+    before the resume, both stderrs)."""
+    return resumed_run.run, resumed_run.scalars_before, resumed_run.stderr
 
 
 @pytest.mark.slow  # over 8 s on the idle 2-core machine
