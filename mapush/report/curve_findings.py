@@ -9,10 +9,10 @@ import dataclasses
 
 import numpy as np
 
-from mapush.eval.curve_points import clean_rate, first_reaching, tail_gain
+from mapush.eval.curve_points import clean_rate, first_reaching, steps_to_reach, tail_gain
 from mapush.experiments.job_records import Curve
 from mapush.experiments.results import JobResult
-from mapush.report.formats import Finding, counted
+from mapush.report.formats import OTHERWISE, Finding, counted
 
 
 def curve_of(result: JobResult, stage: str | None = None) -> Curve | None:
@@ -137,3 +137,55 @@ def stage_verdicts(label: str, results: list[JobResult], stages: list[str]) -> l
             verdict = dataclasses.replace(verdict, text=verdict.text + why, numbers=numbers)
         verdicts.append(verdict)
     return verdicts
+
+
+def steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:
+    """How many env-steps the mean learning curve of `results` would need to reach `rate_pct`, going on as the last
+    stretch of its budget went (`steps_to_reach`), as the end of a finding line, and the number (None: never)."""
+    per_seed = seed_curves(results)
+    if not per_seed:
+        return "", None
+    x, rates, _ = mean_curve(per_seed)
+    tail = float(next(r.curve for r in results if r.curve).rule.tail)
+    points = [{"env_steps": float(e), "success_rate": float(v)} for e, v in zip(x, rates, strict=True)]
+    needed = steps_to_reach(points, rate_pct / 100, tail)
+    budget = f"{x[-1] / 1e6:.1f}M env-steps"
+    if needed is None:
+        return f"; its curve does not rise over the last {100 * tail:.0f} % of its {budget}", None
+    return (
+        f"; its curve still rises: at the rate of its last {100 * tail:.0f} % it would reach that after about "
+        f"{needed / 1e6:.0f}M env-steps (its budget: {budget})"
+    ), needed
+
+
+def trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: float) -> tuple[str, dict]:
+    """Where the jobs of a longer budget (`longer`) trained the learner of `results` past their budget: the env-steps
+    at which their mean curve first reached `rate_pct` and where it ended, as the end of a finding line and its
+    numbers (marked when those jobs were made by an earlier recipe); nothing when no longer curve is there."""
+    ends = [c.points[-1]["env_steps"] for c in (r.curve for r in results) if c and c.points]
+    per_seed = seed_curves(longer)
+    if not (ends and per_seed):
+        return "", {}
+    x, rates, _ = mean_curve(per_seed)
+    if x[-1] <= max(ends):
+        return "", {}
+    variants = ", ".join(sorted({r.variant for r in longer if r.curve}))
+    above = [k for k, v in enumerate(rates) if round(100 * v, 1) >= round(rate_pct, 1)]  # compared as printed
+    hit = float(x[above[0]]) if above else None
+    end = f"{100 * rates[-1]:.1f} % at its end"
+    reached = f"never reached that: {end}"
+    if above:  # a checkpoint reached it; the curve crossed it since the one before
+        before = (
+            f"; the one before: {100 * rates[above[0] - 1]:.1f} % at {x[above[0] - 1] / 1e6:.1f}M" if above[0] else ""
+        )
+        reached = f"first reached that at the checkpoint of {hit / 1e6:.1f}M env-steps ({end}{before})"
+    seeds, marked = counted(len(per_seed), "seed"), {}
+    if any(curve_made_otherwise(r) for r in longer):  # its cells are marked so in their own table
+        seeds, marked = seeds + f", {OTHERWISE} an earlier recipe", {"longer_made_otherwise": 1.0}
+    text = f"; trained on to {x[-1] / 1e6:.1f}M env-steps (budget {variants}, {seeds}) it {reached}"
+    return text, {
+        "env_steps_longer": float(x[-1]),
+        "env_steps_to_pusher_longer": hit,
+        "sr_longer": 100 * float(rates[-1]),
+        **marked,
+    }

@@ -7,12 +7,12 @@ import numpy as np
 from omegaconf import OmegaConf
 
 from mapush.config import group_file
-from mapush.eval.curve_points import steps_to_reach
 from mapush.experiments.results import JobResult
 from mapush.report import curve_findings
 from mapush.report.cells import (
     PAPER,
     collect,
+    event_shares,
     events_finding,
     exception_shares,
     fall_split_finding,
@@ -20,7 +20,7 @@ from mapush.report.cells import (
     named_shares,
     success_time,
 )
-from mapush.report.formats import OTHERWISE, OVER_SEEDS, Finding, Table, counted
+from mapush.report.formats import OVER_SEEDS, Finding, Table, counted
 from mapush.report.physics import known_physics, team_needed
 
 EXTRA_COLUMNS = {
@@ -180,10 +180,10 @@ def _learned_against_scripted(
         numbers = {"learned_sr": learned, "pusher_sr": bar}
         if learned < bar:
             own = matching(mine, method=method, task=task)
-            more, needed = _steps_to(own, bar)
+            more, needed = curve_findings.steps_to(own, bar)
             if more:
                 text, numbers["env_steps_to_pusher"] = text + more, needed
-            on, reached = _trained_on(own, matching(longer, method=method, task=task), bar)
+            on, reached = curve_findings.trained_on(own, matching(longer, method=method, task=task), bar)
             text, numbers = text + on, {**numbers, **reached}
         lines.append(
             Finding(text, learned >= bar, numbers, key=f"{method}_vs_pusher", about=paper["task_labels"][task])
@@ -211,7 +211,34 @@ def _ours_otherwise(mine: list[JobResult], paper: dict, task: str, mean: float) 
             ended, shares = _ended_by(mine, task, eval_name)
             text, numbers = line + ended, {"gap_points": gap, **{f"ended_by {k}": v for k, v in shares.items()}}
             lines.append(Finding(text, gap <= LEGGED_GAP, numbers, key="legged_gap", about=label))
+            lines += _legged_against_the_paper(mine, paper, task, float(np.mean(other)))
     return lines
+
+
+def _legged_against_the_paper(mine: list[JobResult], paper: dict, task: str, legged: float) -> list[Finding]:
+    """Ours on legged Go1s (`legged`, S.R. %) against the paper's legged robots, with how often a robot fell there
+    and on the trackers (eval.json's `events`, counted whatever ended the episode): the measured cause in view where
+    it stays below."""
+    published = paper["success_rate"].get(task, {}).get("ours")
+    if not published:
+        return []
+    label, bar = paper["task_labels"][task], float(published[0])
+    ours = matching(mine, method="ours", task=task)
+    verdict = "holds: at or above" if legged >= bar else "does not hold: below"
+    text = f"{label}: Ours on legged Go1s {legged:.1f} % vs the paper's {bar:.1f} % ({verdict})"
+    numbers = {"legged_sr": legged, "paper_sr": bar}
+    (go1, go1_seeds), (tracker, _) = event_shares(ours, "go1"), event_shares(ours, "main")
+    if "falls" in go1:
+        on_trackers = f", on trackers {tracker['falls']:.0f} %" if "falls" in tracker else ""
+        text += (
+            f"; a robot fell in {go1['falls']:.0f} % of its episodes on Go1s{on_trackers} "
+            f"(mean over {counted(go1_seeds, 'seed')})"
+        )
+        numbers |= {
+            "legged_fall_pct": go1["falls"],
+            **({"tracker_fall_pct": tracker["falls"]} if "falls" in tracker else {}),
+        }
+    return [Finding(text, legged >= bar, numbers, key="legged_vs_paper", about=label)]
 
 
 def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: float) -> list[Finding]:
@@ -241,58 +268,6 @@ def _against_the_paper(mine: list[JobResult], paper: dict, task: str, mean: floa
         numbers = {"ours_success_s": mine_t * timeout, "paper_success_s": paper_t * timeout}
         lines.append(Finding(text, numbers=numbers, key="success_time", about=label))
     return lines
-
-
-def _steps_to(results: list[JobResult], rate_pct: float) -> tuple[str, float | None]:
-    """How many env-steps the mean learning curve of `results` would need to reach `rate_pct`, going on as the last
-    stretch of its budget went (`steps_to_reach`), as the end of a finding line, and the number (None: never)."""
-    per_seed = curve_findings.seed_curves(results)
-    if not per_seed:
-        return "", None
-    x, rates, _ = curve_findings.mean_curve(per_seed)
-    tail = float(next(r.curve for r in results if r.curve).rule.tail)
-    points = [{"env_steps": float(e), "success_rate": float(v)} for e, v in zip(x, rates, strict=True)]
-    needed = steps_to_reach(points, rate_pct / 100, tail)
-    budget = f"{x[-1] / 1e6:.1f}M env-steps"
-    if needed is None:
-        return f"; its curve does not rise over the last {100 * tail:.0f} % of its {budget}", None
-    return (
-        f"; its curve still rises: at the rate of its last {100 * tail:.0f} % it would reach that after about "
-        f"{needed / 1e6:.0f}M env-steps (its budget: {budget})"
-    ), needed
-
-
-def _trained_on(results: list[JobResult], longer: list[JobResult], rate_pct: float) -> tuple[str, dict]:
-    """Where the jobs of a longer budget (`longer`) trained the learner of `results` past their budget: the env-steps
-    at which their mean curve first reached `rate_pct` and where it ended, as the end of a finding line and its
-    numbers (marked when those jobs were made by an earlier recipe); nothing when no longer curve is there."""
-    ends = [c.points[-1]["env_steps"] for c in (r.curve for r in results) if c and c.points]
-    per_seed = curve_findings.seed_curves(longer)
-    if not (ends and per_seed):
-        return "", {}
-    x, rates, _ = curve_findings.mean_curve(per_seed)
-    if x[-1] <= max(ends):
-        return "", {}
-    variants = ", ".join(sorted({r.variant for r in longer if r.curve}))
-    above = [k for k, v in enumerate(rates) if round(100 * v, 1) >= round(rate_pct, 1)]  # compared as printed
-    hit = float(x[above[0]]) if above else None
-    end = f"{100 * rates[-1]:.1f} % at its end"
-    reached = f"never reached that: {end}"
-    if above:  # a checkpoint reached it; the curve crossed it since the one before
-        before = (
-            f"; the one before: {100 * rates[above[0] - 1]:.1f} % at {x[above[0] - 1] / 1e6:.1f}M" if above[0] else ""
-        )
-        reached = f"first reached that at the checkpoint of {hit / 1e6:.1f}M env-steps ({end}{before})"
-    seeds, marked = counted(len(per_seed), "seed"), {}
-    if any(curve_findings.curve_made_otherwise(r) for r in longer):  # its cells are marked so in their own table
-        seeds, marked = seeds + f", {OTHERWISE} an earlier recipe", {"longer_made_otherwise": 1.0}
-    text = f"; trained on to {x[-1] / 1e6:.1f}M env-steps (budget {variants}, {seeds}) it {reached}"
-    return text, {
-        "env_steps_longer": float(x[-1]),
-        "env_steps_to_pusher_longer": hit,
-        "sr_longer": 100 * float(rates[-1]),
-        **marked,
-    }
 
 
 def _legged_baseline(mine: list[JobResult], paper: dict, task: str) -> list[Finding]:

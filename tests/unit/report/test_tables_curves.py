@@ -214,7 +214,7 @@ def test_the_main_tables_findings_from_hand_made_results():
     found = _main_findings(results, PAPER["main"], "cuboid")
     assert keys(found) == [(key, "Cuboid") for key in ("ours_vs_paper", "success_time", "ours_above_baselines",
                            "sa_below_ours", "hl_vs_pusher", "hl_ft_vs_pusher", "high_level_vs_path", "legged_gap",
-                           "legged_sa_below_ours")]  # fmt: skip
+                           "legged_vs_paper", "legged_sa_below_ours")]  # fmt: skip
     # Ours: S.R. (80 + 70) / 2 = 75.0 < 77.5, C.T. (0.5 + 0.6) / 2 = 0.55 <= 0.66: the paper's claim fails on S.R.
     paper = pick(found, "ours_vs_paper", "Cuboid")
     assert paper.holds is False
@@ -239,12 +239,34 @@ def test_the_main_tables_findings_from_hand_made_results():
     assert path.holds is False and path.numbers["gap_points"] == pytest.approx(-5.0)  # 75 - 80: path only
     legged = pick(found, "legged_gap", "Cuboid")
     assert legged.holds is True and legged.numbers["gap_points"] == pytest.approx(10.0)  # 75 - 65 on Go1s
+    # Ours on legs (75 + 55) / 2 = 65.0 against the paper's 77.5; these records count no events: no fall share
+    on_legs = pick(found, "legged_vs_paper", "Cuboid")
+    assert on_legs.holds is False and on_legs.numbers == pytest.approx({"legged_sr": 65.0, "paper_sr": 77.5})
     # SA on legs: (40 + 90) / 2 = 65.0, not below Ours' (75 + 55) / 2 = 65.0; M+L has no legged evaluation
     sa_legged = pick(found, "legged_sa_below_ours", "Cuboid")
     assert sa_legged.holds is False and sa_legged.numbers == pytest.approx({"baseline_sr": 65.0, "ours_sr": 65.0})
     results[3].evals["go1"].success_rate = 0.80  # (40 + 80) / 2 = 60.0
     assert pick(_main_findings(results, PAPER["main"], "cuboid"), "legged_sa_below_ours", "Cuboid").holds is True
     assert _main_findings(results, PAPER["main"], "tblock") == []
+
+
+def test_ours_on_legs_below_the_paper_says_how_often_a_robot_fell_on_go1s_and_on_trackers():
+    from mapush.report.main_table import PAPER, _main_findings
+
+    def evaluation(sr, fell):
+        return {"success_rate": sr, "completion_time": 0.9, "timeout_s": 160.0,
+                "events": {"falls": {"episode_share": fell, "per_episode": fell}}}  # fmt: skip
+
+    results = [JobResult(method="ours", task="cylinder", seed=seed, job_dir=f"ours{seed}",
+                         evals={"main": evaluation(0.5, tracker), "go1": evaluation(sr, legged)})
+               for seed, sr, legged, tracker in ((0, 0.1, 0.9, 0.5), (1, 0.2, 0.7, 0.3))]  # fmt: skip
+    line = pick(_main_findings(results, PAPER["main"], "cylinder"), "legged_vs_paper", "Cylinder")
+    # (10 + 20) / 2 = 15.0 % against 71.2 %; falls (90 + 70) / 2 = 80 % on Go1s, (50 + 30) / 2 = 40 % on trackers
+    assert line.holds is False
+    assert line.numbers == pytest.approx(
+        {"legged_sr": 15.0, "paper_sr": 71.2, "legged_fall_pct": 80.0, "tracker_fall_pct": 40.0}
+    )
+    assert "a robot fell in 80 % of its episodes on Go1s, on trackers 40 % (mean over 2 seeds)" in line.text
 
 
 def test_a_baseline_below_the_pusher_with_a_rising_curve_says_how_many_env_steps_it_would_need():
