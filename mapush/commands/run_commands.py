@@ -128,6 +128,9 @@ def evaluate(
     from mapush.rundir import resolve_checkpoint
 
     run_dir, _ = resolve_checkpoint(target)  # a missing run is told before the simulator and PyTorch load
+    from mapush.config import apply_overrides, load_run_config
+
+    apply_overrides(load_run_config(run_dir), overrides)  # so is a bad override or value (a seed numpy cannot take)
     from mapush.provenance import run_made_by_other_code
 
     if warning := run_made_by_other_code(run_dir):
