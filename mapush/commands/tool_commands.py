@@ -114,11 +114,13 @@ def calibrate(
         raise BadInput(f"--settle {settle} / --duration {duration}: valid: settle >= 0, duration > 0 seconds")
     if repeats < 1:
         raise BadInput(f"--repeats {repeats}: valid: 1 or more")
+    from mapush.calibration.tracker_option import check_name, use_line
+
+    check_name(name)  # a name it cannot write as a tracker option, before anything is measured
     reference = overrides if any(o.startswith("lowlevel=") for o in overrides) else ["lowlevel=go1", *overrides]
     stamp = datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     out_dir = output_dir(out or Path("runs") / "calibrate" / stamp, "--out")
     from mapush.calibration.run import calibrate as run_calibration  # after the checks: it imports the envs
-    from mapush.calibration.tracker_option import use_line
 
     summary = run_calibration(reference, step_sizes, settle, duration, out_dir, name, repeats, seed)
     written = ", ".join(
