@@ -225,7 +225,9 @@ def _legged_against_the_paper(mine: list[JobResult], paper: dict, task: str, leg
     label, bar = paper["task_labels"][task], float(published[0])
     ours = matching(mine, method="ours", task=task)
     verdict = "holds: at or above" if legged >= bar else "does not hold: below"
-    text = f"{label}: Ours on legged Go1s {legged:.1f} % vs the paper's {bar:.1f} % ({verdict})"
+    made_otherwise = collect(mine, "success_rate", 1.0, method="ours", task=task, eval="go1").otherwise
+    mark = " \u2020" if made_otherwise else ""  # its cell's mark: an earlier recipe's
+    text = f"{label}: Ours{mark} on legged Go1s {legged:.1f} % vs the paper's {bar:.1f} % ({verdict})"
     numbers = {"legged_sr": legged, "paper_sr": bar}
     (go1, go1_seeds), (tracker, _) = event_shares(ours, "go1"), event_shares(ours, "main")
     if "falls" in go1:
