@@ -38,7 +38,7 @@ pytestmark = pytest.mark.xdist_group("resumed_run")  # with the resume tests: on
 def resumed_tb(resumed_run):
     """`resumed_run` (3 iterations with TensorBoard and progress lines on, resumed to 6): (run dir, its scalars
     before the resume, both stderrs)."""
-    return resumed_run.run, resumed_run.scalars_before, resumed_run.stderr
+    return resumed_run.run, mcap_scalars(resumed_run.first), resumed_run.stderr
 
 
 @pytest.mark.slow  # over 8 s on the idle 2-core machine
